@@ -1,0 +1,51 @@
+"""tps_solver: kinks and oscillons of vibrated granular layers.
+
+Implements the antiplane continuum model of Goddard & Didwania, *A fluid-like
+model of vibrated granular layers: linear stability, kinks, and oscillons*.
+
+Public API (see ``README.md`` for a tour):
+
+* :class:`FlatLayer` -- the periodically bouncing flat layer, eqs. (17)-(19);
+* :func:`secular_roots`, :func:`growth_rates` -- linear stability, eq. (35);
+* :func:`solve_kink`, :func:`solve_oscillon`, :class:`PeriodicSolution`,
+  :func:`load` -- the spectral time-periodic solver (TPS), eqs. (38)-(50);
+* :class:`Lattice`, :func:`simulate` -- the event-driven FDA, eqs. (51)-(63);
+* :func:`check_stability` -- hands a limit cycle to the FDA.
+
+Submodules are imported lazily (PEP 562), so ``import tps_solver`` is cheap.
+"""
+from importlib import import_module
+
+__version__ = "0.1.0"
+
+# public name -> submodule that defines it
+_LAZY = {
+    "FlatLayer": "flat",
+    "secular_roots": "linear_stability",
+    "growth_rates": "linear_stability",
+    "solve_kink": "tps",
+    "solve_oscillon": "tps",
+    "PeriodicSolution": "tps",
+    "load": "tps",
+    "Lattice": "fda",
+    "simulate": "fda",
+    "SimulationResult": "fda",
+    "check_stability": "stability",
+    "StabilityResult": "stability",
+}
+
+__all__ = sorted(_LAZY) + ["__version__"]
+
+
+def __getattr__(name):
+    try:
+        module = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'tps_solver' has no attribute {name!r}") from None
+    value = getattr(import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,135 @@
+"""Argument checks shared by every public entry point.
+
+Every check raises :class:`ValueError` whose message starts with the parameter
+name and states the allowed range, e.g. ``"Gamma must be a finite number > 0,
+got -1.0"``.  Checks return the value converted to its canonical type so callers
+can write ``Gamma = check_positive(Gamma, "Gamma")``.
+"""
+import numbers
+import operator
+
+import numpy as np
+
+__all__ = [
+    "check_real", "check_positive", "check_nonnegative", "check_in_range",
+    "check_restitution", "check_int", "check_choice", "check_array",
+]
+
+
+def _is_real_scalar(value):
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) or (
+        isinstance(value, np.ndarray) and value.ndim == 0 and np.isrealobj(value)
+        and value.dtype.kind in "fiu")
+
+
+def check_real(value, name):
+    """Return ``value`` as a finite float or raise ``ValueError`` naming ``name``."""
+    if not _is_real_scalar(value):
+        raise ValueError(f"{name} must be a finite real number, got {value!r}")
+    value = float(value)
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be a finite real number, got {value!r}")
+    return value
+
+
+def check_positive(value, name):
+    """Return ``value`` as a float in (0, inf) or raise ``ValueError``.
+
+    Examples
+    --------
+    >>> check_positive(2.5, "Gamma")
+    2.5
+    >>> check_positive(-1, "Gamma")
+    Traceback (most recent call last):
+    ...
+    ValueError: Gamma must be a finite number > 0, got -1
+    """
+    if not _is_real_scalar(value) or not np.isfinite(float(value)) or float(value) <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def check_nonnegative(value, name):
+    """Return ``value`` as a float in [0, inf) or raise ``ValueError``."""
+    if not _is_real_scalar(value) or not np.isfinite(float(value)) or float(value) < 0:
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return float(value)
+
+
+def check_in_range(value, name, low, high, *, low_closed=True, high_closed=True):
+    """Return ``value`` as a float in the stated interval or raise ``ValueError``."""
+    left = "[" if low_closed else "("
+    right = "]" if high_closed else ")"
+    message = f"{name} must be a finite number in {left}{low}, {high}{right}, got {value!r}"
+    if not _is_real_scalar(value) or not np.isfinite(float(value)):
+        raise ValueError(message)
+    v = float(value)
+    if (v < low if low_closed else v <= low) or (v > high if high_closed else v >= high):
+        raise ValueError(message)
+    return v
+
+
+def check_restitution(value, name="e"):
+    """Return the restitution as a float in [0, 1) or raise ``ValueError``."""
+    return check_in_range(value, name, 0.0, 1.0, low_closed=True, high_closed=False)
+
+
+def check_int(value, name, minimum=1, maximum=None):
+    """Return ``value`` as an ``int`` >= ``minimum`` (and <= ``maximum``) or raise.
+
+    Booleans and non-integral floats are rejected.
+
+    Examples
+    --------
+    >>> check_int(2, "M")
+    2
+    >>> check_int(2.5, "M")
+    Traceback (most recent call last):
+    ...
+    ValueError: M must be an integer >= 1, got 2.5
+    """
+    bounds = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
+    message = f"{name} must be an integer {bounds}, got {value!r}"
+    if isinstance(value, bool):
+        raise ValueError(message)
+    try:
+        ivalue = operator.index(value)
+    except TypeError:
+        raise ValueError(message) from None
+    if ivalue < minimum or (maximum is not None and ivalue > maximum):
+        raise ValueError(message)
+    return int(ivalue)
+
+
+def check_choice(value, name, choices):
+    """Return ``value`` if it is one of ``choices`` or raise ``ValueError``."""
+    if not isinstance(value, str) or value not in choices:
+        allowed = ", ".join(repr(c) for c in choices)
+        raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
+    return value
+
+
+def check_array(value, name, *, shape=None, ndim=None, dtype=float, finite=True):
+    """Return ``value`` as an ndarray of ``dtype`` with the given shape/ndim, or raise.
+
+    ``shape`` entries may be ``None`` to accept any length along that axis.
+    NaN or infinite entries are rejected when ``finite`` is true.
+    """
+    try:
+        arr = np.asarray(value)
+    except Exception as exc:  # pragma: no cover - exotic inputs
+        raise ValueError(f"{name} must be array-like: {exc}") from None
+    if arr.dtype.kind not in "biufc":
+        raise ValueError(f"{name} must be numeric, got dtype {arr.dtype}")
+    if np.dtype(dtype).kind == "f" and arr.dtype.kind == "c":
+        raise ValueError(f"{name} must be real-valued, got complex entries")
+    arr = arr.astype(dtype, copy=True)
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
+    if shape is not None:
+        if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+            want = tuple("any" if s is None else s for s in shape)
+            raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if finite and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    return arr

@@ -1,0 +1,155 @@
+r"""Fourier convention of the package, forcing harmonics and the contact polynomial.
+
+Fourier convention (stated once, used everywhere)
+-------------------------------------------------
+A :math:`T`-periodic function, :math:`T = 2\pi M` and :math:`\alpha = 1/M`, is
+written as in the paper's (38)-(39)
+
+.. math::  f(t) = \sum_{n=-N}^{N} \hat f_n\, e^{+i n \alpha t},
+           \qquad \hat f_n = \frac{\alpha}{2\pi}\int_{P} f(t)\, e^{-i n \alpha t}\, dt ,
+
+i.e. a **plus** sign in the synthesis exponent and the normalisation
+:math:`1/T` on the analysis integral over any period :math:`P`.  Arrays of
+coefficients are stored **centred**: entry ``N + n`` holds :math:`\hat f_n` for
+``n = -N, ..., N`` (shape ``(2N+1,)`` or ``(2N+1, n_nodes)``).  Real
+functions have :math:`\hat f_{-n} = \hat f_n^*`.
+
+Contents
+--------
+* :func:`mode_numbers` -- the integer ``n`` of each entry, ``-N..N``;
+* :func:`g_hat` -- the forcing :math:`\hat g_n` of :math:`g(t) = \sin t - 1/\Gamma`, eq. (43);
+* :func:`evaluate` -- synthesis of a (possibly multi-node) series at times ``t``;
+* :func:`flat_w_hat` -- the flat layer's velocity harmonics in closed form
+  (the solution of (45) with constant :math:`t_c`).
+"""
+import numpy as np
+
+from ._validation import check_int, check_positive, check_real
+
+__all__ = ["mode_numbers", "g_hat", "evaluate", "flat_w_hat"]
+
+
+def mode_numbers(N):
+    """Return the mode numbers ``n = -N..N`` in storage order.
+
+    Parameters
+    ----------
+    N : int
+        Truncation order, ``N >= 1``.
+
+    Returns
+    -------
+    n : ndarray of int, shape (2N+1,)
+
+    Examples
+    --------
+    >>> mode_numbers(2)
+    array([-2, -1,  0,  1,  2])
+    """
+    N = check_int(N, "N", minimum=1)
+    return np.arange(-N, N + 1)
+
+
+def g_hat(N, M, Gamma):
+    r"""Fourier coefficients of the plate-frame gravity :math:`g(t) = \sin t - 1/\Gamma`.
+
+    Implements (43): :math:`\hat g_0 = -1/\Gamma`, :math:`\hat g_{\pm M} = \mp i/2`
+    (for ``N >= M``), all others zero.
+
+    Parameters
+    ----------
+    N : int
+        Truncation order.
+    M : int
+        Subharmonic order (period ``2 pi M``).
+    Gamma : float
+        Dimensionless plate acceleration.
+
+    Returns
+    -------
+    g : ndarray of complex, shape (2N+1,)
+
+    Examples
+    --------
+    >>> g = g_hat(2, 2, 2.5)
+    >>> g[2], g[4]
+    ((-0.4+0j), -0.5j)
+    """
+    N = check_int(N, "N", minimum=1)
+    M = check_int(M, "M", minimum=1)
+    Gamma = check_positive(Gamma, "Gamma")
+    g = np.zeros(2 * N + 1, dtype=complex)
+    g[N] = -1.0 / Gamma
+    if M <= N:
+        g[N + M] = -0.5j
+        g[N - M] = 0.5j
+    return g
+
+
+def evaluate(coeffs, t, M):
+    r"""Evaluate :math:`\sum_n \hat f_n e^{i n \alpha t}` at times ``t``.
+
+    Parameters
+    ----------
+    coeffs : ndarray of complex, shape (2N+1,) or (2N+1, n_nodes)
+        Centred coefficients.
+    t : array_like of float, shape (n_times,)
+        Times.
+    M : int
+        Subharmonic order, ``alpha = 1/M``.
+
+    Returns
+    -------
+    f : ndarray of float, shape (n_times,) or (n_times, n_nodes)
+        The real part of the synthesis (the imaginary part vanishes for
+        conjugate-symmetric coefficients).
+
+    Examples
+    --------
+    >>> c = np.array([0.5, 0, 0.5])          # cos(t/2) with M = 2
+    >>> float(evaluate(c, [0.0], 2)[0])
+    1.0
+    """
+    coeffs = np.asarray(coeffs)
+    M = check_int(M, "M", minimum=1)
+    N = (coeffs.shape[0] - 1) // 2
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    n = np.arange(-N, N + 1)
+    phase = np.exp(1j * np.outer(t, n) / M)
+    return (phase @ coeffs).real
+
+
+def flat_w_hat(N, M, Gamma, tc):
+    r"""Velocity harmonics of a layer with uniform contact time ``tc``.
+
+    Closed form of (45) with :math:`\nabla^2 = 0`:
+
+    .. math:: \hat w_n = \frac{\Gamma^{-1} e^{-i n \alpha t_c} + \hat g_n}{i n \alpha},
+              \quad n \ne 0, \qquad \hat w_0 = 0 ,
+
+    which equals the Fourier series of the bouncing-ball velocity (17) with
+    launch phase :math:`t_0 = t_c`:
+    :math:`\hat W_n = e^{-in\alpha t_0}/(i n\alpha\Gamma) - \tfrac12\delta_{|n|M}`.
+
+    Parameters
+    ----------
+    N : int
+    M : int
+    Gamma : float
+    tc : float
+        Contact (launch) phase.
+
+    Returns
+    -------
+    w_hat : ndarray of complex, shape (2N+1,)
+    """
+    N = check_int(N, "N", minimum=1)
+    M = check_int(M, "M", minimum=1)
+    Gamma = check_positive(Gamma, "Gamma")
+    tc = check_real(tc, "tc")
+    n = np.arange(-N, N + 1)
+    g = g_hat(N, M, Gamma)
+    w = np.zeros(2 * N + 1, dtype=complex)
+    nz = n != 0
+    w[nz] = (np.exp(-1j * n[nz] * tc / M) / Gamma + g[nz]) / (1j * n[nz] / M)
+    return w
