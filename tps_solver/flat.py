@@ -1,0 +1,431 @@
+r"""The periodically bouncing flat layer (the bouncing ball of Luck & Mehta).
+
+Implements eqs. (17)-(19) of Goddard & Didwania.  In the plate frame, with
+lengths scaled by the plate amplitude and time by :math:`1/\omega`, a flat
+layer launched at phase :math:`t_0` with post-impact velocity :math:`W_0`
+flies under :math:`g(t) = \sin t - 1/\Gamma` (16):
+
+.. math::
+    W(t) &= W_0 + \cos t_0 - \cos t - \tau/\Gamma, \\
+    \zeta(t) &= \frac{\tau (T - \tau)}{2\Gamma} + \sin t_0 - \sin t,
+    \qquad \tau = t - t_0 \in [0, T),
+
+where the second form of (18) uses the periodicity conditions (19):
+:math:`s = (2\Gamma/T)\cos t_0 = (1-e)/(1+e)` and
+:math:`W_0 = T/(2\Gamma) - \cos t_0`, :math:`T = 2\pi M`.
+
+For given :math:`(\Gamma, e, M)` there are two launch phases
+:math:`t_0 = \pm\arccos(sT/2\Gamma)`.  The Jacobian of the exact impact map
+(derived in :meth:`FlatLayer.impact_map_jacobian`) shows that the branch
+:math:`t_0 > 0` is the one that is stable inside the window
+:meth:`FlatLayer.stability_window`; :math:`t_0 < 0` is a saddle.  The two
+branches merge at the fold :math:`\cos t_0 = 1`, i.e. :math:`\Gamma = s\pi M`,
+where a multiplier equals +1 -- this is the paper's preset :math:`t_0 = 0`.
+"""
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+from ._validation import check_choice, check_int, check_positive, check_real, check_restitution
+from .harmonics import flat_w_hat
+
+__all__ = ["FlatLayer"]
+
+_BRANCHES = ("stable", "unstable")
+
+
+def _flight_velocity(t, t_start, v, Gamma):
+    """Plate-frame velocity at ``t`` of a flight launched at ``t_start`` with velocity ``v``."""
+    return v + math.cos(t_start) - math.cos(t) - (t - t_start) / Gamma
+
+
+def _flight_height(t, t_start, v, Gamma):
+    """Plate-frame height at ``t`` of a flight launched at ``t_start`` from zero height."""
+    d = t - t_start
+    return (v + math.cos(t_start)) * d + math.sin(t_start) - math.sin(t) - d * d / (2.0 * Gamma)
+
+
+def _acceleration_zeros(a, b, Gamma):
+    """Sorted zeros of g(t) = sin t - 1/Gamma in the open interval (a, b)."""
+    if Gamma < 1.0:
+        return []
+    base = math.asin(1.0 / Gamma)
+    zeros = []
+    k0 = math.floor((a - math.pi) / (2 * math.pi)) - 1
+    k = k0
+    while True:
+        for z in (base + 2 * math.pi * k, math.pi - base + 2 * math.pi * k):
+            if a < z < b:
+                zeros.append(z)
+        if base + 2 * math.pi * k > b:
+            break
+        k += 1
+    return sorted(zeros)
+
+
+def _monotone_pieces(t_start, t_end, v, Gamma):
+    """Split [t_start, t_end] into pieces on which the flight height is monotone.
+
+    Between consecutive zeros of the acceleration g the velocity is monotone,
+    so it has at most one zero there; splitting at that zero leaves pieces on
+    which the height is monotone.  This makes root and extremum searches
+    rigorous: a monotone piece holds at most one root and it is bracketed by
+    a sign change of its end values.
+    """
+    breaks = [t_start] + _acceleration_zeros(t_start, t_end, Gamma) + [t_end]
+    pieces = []
+    for a, b in zip(breaks[:-1], breaks[1:]):
+        wa = _flight_velocity(a, t_start, v, Gamma)
+        wb = _flight_velocity(b, t_start, v, Gamma)
+        if wa * wb < 0.0:
+            c = brentq(_flight_velocity, a, b, args=(t_start, v, Gamma), xtol=1e-15, rtol=1e-15)
+            pieces.extend([(a, c), (c, b)])
+        else:
+            pieces.append((a, b))
+    return pieces
+
+
+def _polish_root(f, fprime, t, lo, hi):
+    """A few safeguarded Newton steps on a bracketed simple root."""
+    for _ in range(3):
+        d = fprime(t)
+        if d == 0.0:
+            break
+        t_new = t - f(t) / d
+        if not lo <= t_new <= hi:
+            break
+        t = t_new
+    return t
+
+
+def _next_impact(t_start, v, Gamma, horizon):
+    """First time in (t_start, t_start + horizon] at which the flight height returns to zero.
+
+    Returns ``None`` if there is none.  ``v`` must be > 0, or = 0 with g(t_start) > 0.
+    """
+    t_end = t_start + horizon
+    pieces = _monotone_pieces(t_start, t_end, v, Gamma)
+    for i, (a, b) in enumerate(pieces):
+        za = 0.0 if i == 0 else _flight_height(a, t_start, v, Gamma)
+        zb = _flight_height(b, t_start, v, Gamma)
+        if i > 0 and za == 0.0:
+            return a
+        if za > 0.0 and zb <= 0.0:
+            if zb == 0.0:
+                return b
+            t = brentq(_flight_height, a, b, args=(t_start, v, Gamma), xtol=1e-15, rtol=1e-15)
+            return _polish_root(lambda s: _flight_height(s, t_start, v, Gamma),
+                                lambda s: _flight_velocity(s, t_start, v, Gamma), t, a, b)
+    return None
+
+
+class FlatLayer:
+    r"""The T-periodic bouncing flat layer, eqs. (17)-(19).
+
+    Parameters
+    ----------
+    Gamma : float
+        Dimensionless plate acceleration :math:`\Gamma = A\omega^2/g_0 > 0`.
+    M : int
+        Subharmonic order, period :math:`T = 2\pi M`.
+    e : float, optional
+        Restitution in [0, 1).  Exactly one of ``e`` and ``t0`` is normally
+        given; if both are, they must satisfy (19).
+    t0 : float, optional
+        Launch (contact) phase.  The paper's preset is ``t0 = 0``, which fixes
+        ``e`` through (19) and sits exactly at the fold of the flat orbit.
+    branch : {"stable", "unstable"}, optional
+        With ``e`` given: ``"stable"`` selects :math:`t_0 = +\arccos(sT/2\Gamma)`
+        (stable inside :meth:`stability_window`), ``"unstable"`` the saddle
+        :math:`t_0 < 0`.  Ignored (but checked) when ``t0`` is given.
+
+    Attributes
+    ----------
+    Gamma, e, t0, period, W0 : float
+    M : int
+    branch : str
+        ``"stable"`` if ``t0 >= 0`` else ``"unstable"``.
+
+    Raises
+    ------
+    ValueError
+        If a parameter is out of range, no periodic orbit exists
+        (:math:`sT/2\Gamma > 1`), or the orbit touches the plate before the
+        period ends (inadmissible).
+
+    Examples
+    --------
+    >>> fl = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> round(fl.t0, 6), fl.is_stable
+    (0.30678, True)
+    >>> fl = FlatLayer(Gamma=2.5, M=2, t0=0.0)      # the paper's preset
+    >>> round(fl.e, 4)
+    0.4307
+    """
+
+    def __init__(self, Gamma, M, e=None, t0=None, branch="stable"):
+        Gamma = check_positive(Gamma, "Gamma")
+        M = check_int(M, "M", minimum=1)
+        branch = check_choice(branch, "branch", _BRANCHES)
+        T = 2.0 * math.pi * M
+        if e is None and t0 is None:
+            raise ValueError("e or t0 must be given (e in [0, 1), or t0 with e from (19))")
+        if t0 is not None:
+            t0 = check_real(t0, "t0")
+            s = 2.0 * Gamma * math.cos(t0) / T
+            if not 0.0 < s <= 1.0:
+                raise ValueError(
+                    f"t0 must give a restitution e = (1-s)/(1+s) in [0, 1) through (19), i.e. "
+                    f"0 < s = 2*Gamma*cos(t0)/T <= 1; got s = {s:.6g} for t0 = {t0!r}, Gamma = {Gamma}, M = {M}")
+            e_t0 = (1.0 - s) / (1.0 + s)
+            if e is not None:
+                e = check_restitution(e, "e")
+                if abs(e - e_t0) > 1e-12:
+                    raise ValueError(f"e and t0 are inconsistent: t0 = {t0} gives e = {e_t0:.15g} by (19), "
+                                     f"got e = {e}")
+            e = e_t0
+            # wrap t0 into (-pi, pi]
+            t0 = math.atan2(math.sin(t0), math.cos(t0))
+        else:
+            e = check_restitution(e, "e")
+            s = (1.0 - e) / (1.0 + e)
+            c = s * T / (2.0 * Gamma)
+            if c > 1.0:
+                raise ValueError(
+                    f"Gamma is too small for a period-{M} orbit with e = {e}: (19) needs "
+                    f"Gamma >= s*pi*M = {s * math.pi * M:.12g}, got Gamma = {Gamma}")
+            t0 = math.acos(c) if branch == "stable" else -math.acos(c)
+        self.Gamma = Gamma
+        self.M = M
+        self.e = e
+        self.t0 = t0
+        self.period = T
+        self.W0 = T / (2.0 * Gamma) - math.cos(t0)
+        self.branch = "stable" if t0 >= 0 else "unstable"
+        self._check_admissible()
+
+    # ------------------------------------------------------------------ orbit
+    def __repr__(self):
+        return (f"FlatLayer(Gamma={self.Gamma!r}, M={self.M!r}, e={self.e!r}, "
+                f"t0={self.t0!r}, branch={self.branch!r})")
+
+    def _check_admissible(self):
+        """Raise ValueError unless zeta > 0 on the open period (rigorous, see _monotone_pieces)."""
+        t0, T, G = self.t0, self.period, self.Gamma
+        if self.W0 < 0.0 or (self.W0 == 0.0 and math.sin(t0) - 1.0 / G <= 0.0):
+            raise ValueError(
+                f"inadmissible orbit: post-impact velocity W0 = {self.W0:.6g} with g(t0) = "
+                f"{math.sin(t0) - 1.0 / G:.6g} does not lift off (for e = 0 the layer sticks; "
+                f"sticking orbits are not of the form (17)-(19))")
+        t_hit = _next_impact(t0, self.W0, G, T * (1.0 + 1e-9))
+        if t_hit is None or t_hit < t0 + T * (1.0 - 1e-10):
+            where = "never" if t_hit is None else f"at t = {t_hit:.12g} < t0 + T = {t0 + T:.12g}"
+            raise ValueError(
+                f"inadmissible orbit for Gamma = {G}, e = {self.e:.12g}, M = {self.M}, t0 = {t0:.12g}: "
+                f"the layer touches the plate {where} (zeta must be > 0 on the open period)")
+
+    def velocity(self, t):
+        """Plate-frame velocity W(t) of (17), T-periodic; post-impact value at contact instants.
+
+        Parameters
+        ----------
+        t : array_like of float
+
+        Returns
+        -------
+        W : ndarray of float, same shape as ``t``
+        """
+        t = np.asarray(t, dtype=float)
+        tau = np.mod(t - self.t0, self.period)
+        return self.W0 + math.cos(self.t0) - np.cos(self.t0 + tau) - tau / self.Gamma
+
+    def height(self, t):
+        """Plate-frame height zeta(t) of (18), T-periodic.
+
+        Parameters
+        ----------
+        t : array_like of float
+
+        Returns
+        -------
+        zeta : ndarray of float, same shape as ``t``
+        """
+        t = np.asarray(t, dtype=float)
+        tau = np.mod(t - self.t0, self.period)
+        return (tau * (self.period - tau) / (2.0 * self.Gamma) + math.sin(self.t0)
+                - np.sin(self.t0 + tau))
+
+    @property
+    def impact_velocity(self):
+        """Pre-impact velocity W(t0 + T -) = W0 - T/Gamma (< 0)."""
+        return self.W0 - self.period / self.Gamma
+
+    @property
+    def peak_height(self):
+        """Maximum of zeta over the period (at the interior zero of W)."""
+        best = 0.0
+        for a, b in _monotone_pieces(self.t0, self.t0 + self.period, self.W0, self.Gamma):
+            for t in (a, b):
+                best = max(best, float(self.height(t)))
+        return best
+
+    def harmonics(self, N):
+        r"""Exact Fourier coefficients of W(t) in the package convention.
+
+        :math:`\hat W_n = e^{-in\alpha t_0}/(i n\alpha\Gamma) - \tfrac12\delta_{|n|M}`,
+        :math:`\hat W_0 = 0` (closed form, no FFT; see :func:`~tps_solver.harmonics.flat_w_hat`).
+
+        Parameters
+        ----------
+        N : int
+            Truncation order, ``N >= 1``.
+
+        Returns
+        -------
+        w_hat : ndarray of complex, shape (2N+1,)
+            Entry ``N + n`` is :math:`\hat W_n`, ``n = -N..N``.
+        """
+        return flat_w_hat(N, self.M, self.Gamma, self.t0)
+
+    def height_harmonics(self, N):
+        r"""Exact Fourier coefficients of zeta(t): :math:`\hat\zeta_n = \hat W_n/(in\alpha)`,
+        :math:`\hat\zeta_0 = T^2/(12\Gamma) + \sin t_0` (the period mean).
+
+        Returns
+        -------
+        zeta_hat : ndarray of complex, shape (2N+1,)
+        """
+        w = self.harmonics(N)
+        n = np.arange(-N, N + 1)
+        z = np.zeros_like(w)
+        nz = n != 0
+        z[nz] = w[nz] / (1j * n[nz] / self.M)
+        z[N] = self.period ** 2 / (12.0 * self.Gamma) + math.sin(self.t0)
+        return z
+
+    # -------------------------------------------------------------- stability
+    def impact_map(self, t, v):
+        """The exact impact map (t_k, v_k) -> (t_{k+1}, v_{k+1}).
+
+        The next impact is the first root of the flight height after ``t``
+        (found rigorously on monotone pieces), and ``v_{k+1} = -e W(t_{k+1}-)``.
+
+        Parameters
+        ----------
+        t : float
+            Impact phase.
+        v : float
+            Post-impact velocity (> 0).
+
+        Returns
+        -------
+        t_next, v_next : float
+
+        Raises
+        ------
+        ValueError
+            If the flight does not return to the plate within 4 periods.
+        """
+        t = check_real(t, "t")
+        v = check_real(v, "v")
+        if v <= 0.0:
+            raise ValueError(f"v must be > 0 (post-impact velocity), got {v}")
+        t_next = _next_impact(t, v, self.Gamma, 4.0 * self.period)
+        if t_next is None:
+            raise ValueError("no impact within 4 periods of t")
+        return t_next, -self.e * _flight_velocity(t_next, t, v, self.Gamma)
+
+    def impact_map_jacobian(self, t=None, v=None):
+        r"""Jacobian of the impact map at (t, v) (default: the periodic orbit).
+
+        With :math:`F(t', t, v) = (v + \cos t)(t'-t) + \sin t - \sin t' - (t'-t)^2/2\Gamma = 0`,
+        :math:`u = W(t'^-)`, :math:`\Delta = t' - t` and :math:`g(t) = \sin t - 1/\Gamma`:
+
+        .. math::
+            \partial_t t' = (v + \Delta g(t))/u, \quad \partial_v t' = -\Delta/u,\\
+            dv' = -e\,[dv - g(t)\,dt + g(t')\,dt'],
+
+        whence :math:`\det J = -e v/u`, which equals :math:`e^2` on the periodic orbit.
+
+        Returns
+        -------
+        J : ndarray of float, shape (2, 2)
+            Rows (t', v'), columns (t, v).
+        """
+        if t is None:
+            t, v = self.t0, self.W0
+            t_next = t + self.period
+        else:
+            t_next, _ = self.impact_map(t, v)
+        G, e = self.Gamma, self.e
+        d = t_next - t
+        u = _flight_velocity(t_next, t, v, G)
+        g0 = math.sin(t) - 1.0 / G
+        g1 = math.sin(t_next) - 1.0 / G
+        dtt = (v + d * g0) / u
+        dtv = -d / u
+        return np.array([[dtt, dtv],
+                         [-e * (-g0 + g1 * dtt), -e * (1.0 + g1 * dtv)]])
+
+    def floquet_multipliers(self):
+        """The two multipliers of the period (impact) map, by decreasing modulus.
+
+        Returns
+        -------
+        mu : ndarray of complex, shape (2,)
+        """
+        mu = np.linalg.eigvals(self.impact_map_jacobian()).astype(complex)
+        return mu[np.argsort(-np.abs(mu), kind="stable")]
+
+    @property
+    def is_stable(self):
+        """True if both multipliers lie strictly inside the unit circle."""
+        return bool(np.max(np.abs(self.floquet_multipliers())) < 1.0)
+
+    @staticmethod
+    def stability_window(e, M):
+        r"""Interval of Gamma in which the stable branch is linearly stable.
+
+        The lower end is the fold :math:`\Gamma = s\pi M` (multiplier +1, where
+        the two branches are born); the upper end is the period doubling where
+        :math:`\operatorname{tr}J = -(1 + e^2)` (multiplier -1), found by
+        ``brentq``.  Admissibility is checked at the returned ends.
+
+        Parameters
+        ----------
+        e : float
+            Restitution in (0, 1).
+        M : int
+
+        Returns
+        -------
+        Gamma_low, Gamma_high : float
+
+        Examples
+        --------
+        >>> lo, hi = FlatLayer.stability_window(0.45, 2)
+        >>> round(lo, 6)
+        2.383277
+        """
+        e = check_restitution(e, "e")
+        if e == 0.0:
+            raise ValueError("e must be > 0 for the stability window (e = 0 orbits stick)")
+        M = check_int(M, "M", minimum=1)
+        s = (1.0 - e) / (1.0 + e)
+        low = s * math.pi * M
+
+        def pd(G):
+            J = FlatLayer(G, M, e=e).impact_map_jacobian()
+            return np.trace(J) + 1.0 + e * e
+
+        G = low * (1.0 + 1e-6)
+        if pd(G) < 0.0:
+            raise ValueError("no stable interval found above the fold")
+        step = 1.05
+        while pd(G * step) > 0.0:
+            G *= step
+            if G > 1e6:
+                raise ValueError("period doubling not found below Gamma = 1e6")
+        high = brentq(pd, G, G * step, xtol=1e-14, rtol=1e-15)
+        return low, high
