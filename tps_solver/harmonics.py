@@ -20,13 +20,33 @@ Contents
 * :func:`g_hat` -- the forcing :math:`\hat g_n` of :math:`g(t) = \sin t - 1/\Gamma`, eq. (43);
 * :func:`evaluate` -- synthesis of a (possibly multi-node) series at times ``t``;
 * :func:`flat_w_hat` -- the flat layer's velocity harmonics in closed form
-  (the solution of (45) with constant :math:`t_c`).
+  (the solution of (45) with constant :math:`t_c`);
+* :func:`sawtooth_tail` -- the closed-form tail of the truncated jump series.
+
+The jump and its tail
+---------------------
+At its contact time every node's velocity jumps by :math:`J = T/\Gamma`
+((44) makes the impulse the same everywhere).  The unit T-periodic sawtooth
+with a jump +1 at :math:`\tau = 0`, :math:`s(\tau) = 1/2 - \tau/T` on
+:math:`(0, T)`, has :math:`\hat s_n = 1/(2\pi i n)` (:math:`n \ne 0`), and its
+integral :math:`Z(\tau)` (zero mean) has
+:math:`\hat Z_n = \hat s_n/(i n\alpha)`, i.e. with :math:`x = \alpha\tau \in [0, 2\pi)`
+
+.. math:: s(\tau) = \frac{\pi - x}{2\pi}, \qquad
+          Z(\tau) = -\frac{M}{\pi}\Big(\frac{\pi^2}{6} - \frac{\pi x}{2} + \frac{x^2}{4}\Big).
+
+Their symmetric partial sums leave O(1/N) and O(1/N^2) tails that are known in
+closed form; adding :math:`J\,[s - s_N](t - t_c)` to a truncated velocity
+series (and :math:`J\,[Z - Z_N]` to the height) removes the Gibbs error of the
+node's own jump, so the flat layer is reproduced exactly for every N >= M.
+Note :math:`s_N(0) = 0 = s(0^\pm)` averaged: the symmetric partial sum
+already gives the jump's mean exactly at the jump (DESIGN hazard 1).
 """
 import numpy as np
 
 from ._validation import check_int, check_positive, check_real
 
-__all__ = ["mode_numbers", "g_hat", "evaluate", "flat_w_hat"]
+__all__ = ["mode_numbers", "g_hat", "evaluate", "flat_w_hat", "sawtooth_tail", "sawtooth", "sawtooth_hat"]
 
 
 def mode_numbers(N):
@@ -153,3 +173,103 @@ def flat_w_hat(N, M, Gamma, tc):
     nz = n != 0
     w[nz] = (np.exp(-1j * n[nz] * tc / M) / Gamma + g[nz]) / (1j * n[nz] / M)
     return w
+
+
+def sawtooth_tail(tau, N, M, kind="velocity"):
+    r"""Tail :math:`s - s_N` (or :math:`Z - Z_N`) of the unit sawtooth series.
+
+    Parameters
+    ----------
+    tau : array_like of float
+        Time since the jump; reduced modulo T = 2 pi M.  At ``tau = 0`` the
+        velocity tail is defined as 0 (the jump's mean, where the symmetric
+        partial sum is exact).
+    N : int
+        Truncation order.
+    M : int
+        Subharmonic order.
+    kind : {"velocity", "height"}
+        ``"velocity"``: :math:`s(\tau) - s_N(\tau)`, with
+        :math:`s_N = \sum_{n=1}^N \sin(n\alpha\tau)/(\pi n)`;
+        ``"height"``: :math:`Z(\tau) - Z_N(\tau)`, with
+        :math:`Z_N = -(M/\pi)\sum_{n=1}^N \cos(n\alpha\tau)/n^2`.
+
+    Returns
+    -------
+    tail : ndarray of float, same shape as ``tau``
+
+    Examples
+    --------
+    >>> float(sawtooth_tail(0.0, 10, 2))
+    0.0
+    >>> abs(float(sawtooth_tail(0.0, 10, 2, "height")) + 2 / np.pi * (np.pi**2 / 6 - sum(1 / n**2 for n in range(1, 11)))) < 1e-15
+    True
+    """
+    N = check_int(N, "N", minimum=1)
+    M = check_int(M, "M", minimum=1)
+    if kind not in ("velocity", "height"):
+        raise ValueError(f"kind must be one of 'velocity', 'height', got {kind!r}")
+    tau = np.asarray(tau, dtype=float)
+    x = np.mod(tau / M, 2.0 * np.pi)
+    n = np.arange(1, N + 1)
+    nx = np.multiply.outer(x, n)
+    if kind == "velocity":
+        exact = np.where(x == 0.0, 0.0, (np.pi - x) / (2.0 * np.pi))
+        partial = np.sin(nx) @ (1.0 / (np.pi * n))
+    else:
+        exact = -(M / np.pi) * (np.pi ** 2 / 6.0 - np.pi * x / 2.0 + x * x / 4.0)
+        partial = -(M / np.pi) * (np.cos(nx) @ (1.0 / n ** 2))
+    return exact - partial
+
+
+def sawtooth(tau, M, kind="velocity"):
+    r"""The exact unit sawtooth :math:`s(\tau)` or its zero-mean integral :math:`Z(\tau)`.
+
+    ``s(0) = 0`` (the jump's mean).  See the module docstring for the formulas.
+
+    Parameters
+    ----------
+    tau : array_like of float
+    M : int
+    kind : {"velocity", "height"}
+
+    Returns
+    -------
+    ndarray of float, same shape as ``tau``
+    """
+    M = check_int(M, "M", minimum=1)
+    if kind not in ("velocity", "height"):
+        raise ValueError(f"kind must be one of 'velocity', 'height', got {kind!r}")
+    x = np.mod(np.asarray(tau, dtype=float) / M, 2.0 * np.pi)
+    if kind == "velocity":
+        return np.where(x == 0.0, 0.0, (np.pi - x) / (2.0 * np.pi))
+    return -(M / np.pi) * (np.pi ** 2 / 6.0 - np.pi * x / 2.0 + x * x / 4.0)
+
+
+def sawtooth_hat(N, M, tc, kind="velocity"):
+    r"""Centred coefficients of :math:`s(t - t_c)` (or :math:`Z(t - t_c)`) per node.
+
+    :math:`\hat s_n e^{-in\alpha t_c}` with :math:`\hat s_n = 1/(2\pi i n)`, and
+    :math:`\hat Z_n = \hat s_n/(i n\alpha)`; the n = 0 entries are 0.
+
+    Parameters
+    ----------
+    N, M : int
+    tc : array_like of float, shape (n_nodes,)
+
+    Returns
+    -------
+    ndarray of complex, shape (2N+1, n_nodes)
+    """
+    N = check_int(N, "N", minimum=1)
+    M = check_int(M, "M", minimum=1)
+    tc = np.atleast_1d(np.asarray(tc, dtype=float))
+    n = np.arange(-N, N + 1)
+    c = np.zeros(2 * N + 1, dtype=complex)
+    nz = n != 0
+    c[nz] = 1.0 / (2j * np.pi * n[nz])
+    if kind == "height":
+        c[nz] = c[nz] / (1j * n[nz] / M)
+    elif kind != "velocity":
+        raise ValueError(f"kind must be one of 'velocity', 'height', got {kind!r}")
+    return c[:, None] * np.exp(-1j * np.outer(n / M, tc))
