@@ -1,0 +1,13 @@
+"""``tps-solver oscillon``: the TPS oscillon (Sec. 4.3.2)."""
+from . import _tps_common
+
+NAME = "oscillon"
+HELP = "Time-periodic axisymmetric oscillon by the spectral TPS; prints convergence and the physical checks."
+
+
+def configure(parser):
+    _tps_common.configure(parser, "axisymmetric")
+
+
+def run(args):
+    return _tps_common.run(args, "axisymmetric")
