@@ -10,7 +10,7 @@ import pytest
 
 from tps_solver.flat import FlatLayer
 from tps_solver.harmonics import evaluate, flat_w_hat, g_hat, mode_numbers
-from validation.flat_layer_analytics import paper_flight, quad_coefficients
+from validation.flat_layer_analytics import mpmath_coefficient, paper_flight, quad_coefficients
 
 EPS = np.finfo(float).eps
 
@@ -28,30 +28,31 @@ def _layer(Gamma, M, e, branch):
 
 
 @pytest.mark.parametrize("case", CASES)
-def test_velocity_harmonics_equal_quadrature(case):
+@pytest.mark.parametrize("which, N", [(0, 30), (1, 12)], ids=["W", "zeta"])
+def test_closed_form_harmonics_equal_quadrature(case, which, N):
+    """harmonics(N) (which = 0) and height_harmonics(N) (which = 1) vs QUADPACK of (17)-(18)."""
     fl = _layer(*case)
-    N = 30
-    ref, quad_err = quad_coefficients(lambda s: float(paper_flight(s, fl.t0, fl.W0, fl.Gamma)[0]),
-                                      fl.t0, fl.period, fl.M, N)
-    w = fl.harmonics(N)
-    assert w.shape == (2 * N + 1,) and w.dtype == complex
-    n = mode_numbers(N)
-    nz = n != 0
-    rel = np.abs(w[nz] - ref[nz]) / np.abs(w[nz])
-    assert rel.max() <= 1e-12
-    assert w[N] == 0 and abs(ref[N]) <= 1e-13          # zero mean, (44)
-    np.testing.assert_array_equal(w[::-1], np.conj(w))  # real function
-
-
-@pytest.mark.parametrize("case", CASES)
-def test_height_harmonics_equal_quadrature(case):
-    fl = _layer(*case)
-    N = 12
-    ref, _ = quad_coefficients(lambda s: float(paper_flight(s, fl.t0, fl.W0, fl.Gamma)[1]),
+    ref, _ = quad_coefficients(lambda s: float(paper_flight(s, fl.t0, fl.W0, fl.Gamma)[which]),
                                fl.t0, fl.period, fl.M, N)
-    z = fl.height_harmonics(N)
-    rel = np.abs(z - ref) / np.abs(z)
-    assert rel.max() <= 1e-12
+    c = fl.harmonics(N) if which == 0 else fl.height_harmonics(N)
+    assert c.shape == (2 * N + 1,) and c.dtype == complex
+    np.testing.assert_array_equal(c[::-1], np.conj(c))  # real function
+    nz = mode_numbers(N) != 0 if which == 0 else slice(None)
+    assert np.max(np.abs(c[nz] - ref[nz]) / np.abs(c[nz])) <= 1e-12
+    if which == 0:
+        assert c[N] == 0 and abs(ref[N]) <= 1e-13      # zero mean, (44)
+
+
+@pytest.mark.parametrize("case, n, which", [
+    (CASES[0], 30, "height"), (CASES[3], -25, "velocity"),
+])
+def test_high_harmonics_equal_mpmath(case, n, which):
+    """Past n ~ 20 the zeta_n are below QUADPACK's round-off floor (about 1e-12 relative);
+    mpmath at 24 digits shows the closed form is exact there too."""
+    fl = _layer(*case)
+    N = abs(n)
+    c = (fl.harmonics(N) if which == "velocity" else fl.height_harmonics(N))[N + n]
+    assert abs(c - mpmath_coefficient(*case, n, which)) <= 1e-13 * abs(c)
 
 
 @pytest.mark.parametrize("case", CASES)
