@@ -375,9 +375,10 @@ def jump_asymptotics(w_hat, tc, M, fraction=0.5):
                          f"(N = {N})")
     x = n / M
     y = (2.0 * np.pi * M) * (1j * x)[:, None] * w[N + n, :] * np.exp(1j * np.outer(x, tcs))
-    re, *_ = np.linalg.lstsq(np.stack([np.ones_like(x), x**2, x**-2], 1), y.real, rcond=None)
+    # small bases, many right-hand sides: apply the pseudo-inverses directly
+    re = np.linalg.pinv(np.stack([np.ones_like(x), x**2, x**-2], 1)) @ y.real
     basis = np.stack([x, x**-1, x**-3], 1)
-    im, *_ = np.linalg.lstsq(basis, y.imag, rcond=None)
+    im = np.linalg.pinv(basis) @ y.imag
     # standard error of K from the residual of the imaginary fit
     rss = ((y.imag - basis @ im) ** 2).sum(axis=0)
     var = np.linalg.inv(basis.T @ basis)[1, 1] * rss / max(n.size - 3, 1)
