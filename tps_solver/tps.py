@@ -192,7 +192,7 @@ def load(path):
 class _Problem:
     """The discretised TPS problem on the solved half-domain."""
 
-    def __init__(self, geometry, h, n_nodes, flat, N, coupling=1.0):
+    def __init__(self, geometry, h, n_nodes, flat, N, coupling=1.0, symmetry="kink"):
         from .helmholtz import HelmholtzSolver
 
         self.geometry = geometry
@@ -208,13 +208,16 @@ class _Problem:
             # unknowns on staggered nodes (j + 1/2) h; node 0 at the symmetry point x = 0
             self.x = (np.arange(n_nodes) + 0.5) * h
             grid = np.concatenate([[0.0], self.x])
-            self.parity = np.where(self.n % 2 == 0, 1, -1)
+            self.parity = (np.where(self.n % 2 == 0, 1, -1) if symmetry == "kink"
+                           else np.ones(N, dtype=int))
+            self.symmetry = symmetry
             self.offset = 1
         else:
             self.x = np.arange(n_nodes) * h
             grid = self.x
             self.parity = None
             self.offset = 0
+            self.symmetry = None
         # coupling nu_c scales the Laplacian: nu_c Lap u - i n alpha u = q  <=>  Lap in x/sqrt(nu_c)
         self.coupling = coupling
         self.solver = HelmholtzSolver(grid / math.sqrt(coupling), geometry, self.M, N)
@@ -500,11 +503,12 @@ def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geom
     w_full = _centred(w)
     x = problem.x / math.sqrt(problem.coupling)     # the nodes of the problem actually solved
     if geometry == "planar":
-        # mirror: w_n(-x) = (-1)^n w_n(x); tc(-x) = tc(x) + T/2
-        sign = (-1.0) ** np.arange(-N, N + 1)
+        # mirror.  kink: w_n(-x) = (-1)^n w_n(x), tc(-x) = tc(x) + T/2;  even: w_n(-x) = w_n(x)
+        kink = problem.symmetry == "kink"
+        sign = (-1.0) ** np.arange(-N, N + 1) if kink else np.ones(2 * N + 1)
         nodes = np.concatenate([-x[::-1], x])
         w_full = np.concatenate([(sign[:, None] * w_full)[:, ::-1], w_full], axis=1)
-        tc = np.concatenate([_wrap(tc[::-1] + T / 2, T), tc])
+        tc = np.concatenate([_wrap(tc[::-1] + (T / 2 if kink else 0.0), T), tc])
     else:
         nodes = x.copy()
     # zeta_hat by (39)-(40): zeta_n = w_n/(i n alpha), zeta_0 = -sum_{n != 0} zeta_n e^{i n alpha tc}
@@ -544,19 +548,21 @@ def _decoupled_spacing(M):
 
 
 def _solve(geometry, Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial, default_tc,
-           tol, max_iter, scheme, paper_sign, min_shift, callback, continuation, tail_correction):
+           tol, max_iter, scheme, paper_sign, min_shift, callback, continuation, tail_correction,
+           symmetry="kink"):
     flat, N, tol, max_iter, scheme = _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter,
                                                   scheme, paper_sign)
     if not isinstance(continuation, bool):
         raise ValueError(f"continuation must be True or False, got {continuation!r}")
     h = length / (n_nodes - (0.5 if geometry == "planar" else 1.0))
-    problem = _Problem(geometry, h, n_nodes, flat, N)
+    problem = _Problem(geometry, h, n_nodes, flat, N, symmetry=symmetry)
     tc = _initial_tc(tc_initial, problem.x, default_tc(problem.x, flat)).astype(float)
     start = time.perf_counter()
     path = None
     nu_start = (h / _decoupled_spacing(flat.M)) ** 2
     if scheme == "newton" and continuation and nu_start < 1.0:
-        out = _continuation(lambda nu: _Problem(geometry, h, n_nodes, flat, N, coupling=nu),
+        out = _continuation(lambda nu: _Problem(geometry, h, n_nodes, flat, N, coupling=nu,
+                                                symmetry=symmetry),
                             tc, tol, max_iter, nu_start, callback)
         *out, path, problem = out
     elif scheme == "newton":
@@ -571,7 +577,7 @@ def _solve(geometry, Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial, 
 def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
                length=10.0, n_nodes=200, tol=1e-10, max_iter=50, scheme="newton",
                paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
-               callback=None):
+               symmetry="kink", callback=None):
     r"""Time-periodic kink: two flat layers bouncing half a period apart.
 
     Solves (45)-(46) on :math:`x \ge 0` with the kink symmetry
@@ -613,6 +619,12 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
         coupling (used with scheme "newton"; ignored otherwise).  If the branch ends at a fold first,
         the result has ``converged=False``, ``status=4`` and holds the last
         converged solution on stretched nodes (``coupling < 1``).
+    tail_correction : bool
+        Evaluate each node's own jump (size T/Gamma at tc) in closed form in
+        ``velocity``/``height`` and in (40) (see :mod:`tps_solver.harmonics`).
+    symmetry : {"kink", "even"}
+        ``"kink"``: w(t + T/2, -x) = w(t, x) (the two far fields half a period
+        apart); ``"even"``: w(t, -x) = w(t, x) (e.g. a flat layer or a stripe).
     callback : callable, optional
         ``callback(iteration, tc, residual)`` after each Newton step.
 
@@ -629,7 +641,8 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
     length, n_nodes = _grid(length, n_nodes, "length")
     return _solve("planar", Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial,
                   lambda x, fl: np.full(x.size, fl.t0), tol, max_iter, scheme, paper_sign,
-                  min_shift, callback, continuation, tail_correction)
+                  min_shift, callback, continuation, tail_correction,
+                  check_choice(symmetry, "symmetry", ("kink", "even")))
 
 
 def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
@@ -640,7 +653,7 @@ def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=No
 
     Parameters
     ----------
-    Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign, min_shift, callback
+    Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign, min_shift, continuation, tail_correction, callback
         As in :func:`solve_kink`.
     tc_initial : None, array_like of float (n_nodes,), or callable
         ``None``: the step guess ``tc = t0 + T/2`` for ``r < r_core`` and
