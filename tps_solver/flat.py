@@ -179,6 +179,9 @@ class FlatLayer:
                     f"t0 must give a restitution e = (1-s)/(1+s) in [0, 1) through (19), i.e. "
                     f"0 < s = 2*Gamma*cos(t0)/T <= 1; got s = {s:.6g} for t0 = {t0!r}, Gamma = {Gamma}, M = {M}")
             e_t0 = (1.0 - s) / (1.0 + s)
+            if not 0.0 <= e_t0 < 1.0:
+                raise ValueError(f"t0 must give a restitution e in [0, 1) through (19); t0 = {t0!r} "
+                                 f"gives e = {e_t0!r}")
             if e is not None:
                 e = check_restitution(e, "e")
                 if abs(e - e_t0) > 1e-12:
@@ -225,6 +228,14 @@ class FlatLayer:
                 f"inadmissible orbit for Gamma = {G}, e = {self.e:.12g}, M = {self.M}, t0 = {t0:.12g}: "
                 f"the layer touches the plate {where} (zeta must be > 0 on the open period)")
 
+    def _phase(self, t):
+        """tau = (t - t0) mod T in [0, T); a tau within round-off of T (t = t0 + kT computed in
+        floating point) is snapped to 0, so contact instants give the post-impact state."""
+        t = np.asarray(t, dtype=float)
+        tau = np.mod(t - self.t0, self.period)
+        slack = 8.0 * np.finfo(float).eps * (np.abs(t) + self.period)
+        return np.where(self.period - tau <= slack, 0.0, tau)
+
     def velocity(self, t):
         """Plate-frame velocity W(t) of (17), T-periodic; post-impact value at contact instants.
 
@@ -236,8 +247,7 @@ class FlatLayer:
         -------
         W : ndarray of float, same shape as ``t``
         """
-        t = np.asarray(t, dtype=float)
-        tau = np.mod(t - self.t0, self.period)
+        tau = self._phase(t)
         return self.W0 + math.cos(self.t0) - np.cos(self.t0 + tau) - tau / self.Gamma
 
     def height(self, t):
@@ -251,8 +261,7 @@ class FlatLayer:
         -------
         zeta : ndarray of float, same shape as ``t``
         """
-        t = np.asarray(t, dtype=float)
-        tau = np.mod(t - self.t0, self.period)
+        tau = self._phase(t)
         return (tau * (self.period - tau) / (2.0 * self.Gamma) + math.sin(self.t0)
                 - np.sin(self.t0 + tau))
 
