@@ -131,6 +131,11 @@ def test_many_nodes_batch_equals_single():
     single = [contact_times(w[:, k], M, -np.cos(t0s[k])).tc[0] for k in range(len(t0s))]
     assert np.array_equal(res.tc, np.array(single))
     assert np.all(np.abs(wrap(res.tc - t0s, M)) <= 1e-12)
+    # more nodes than one FFT chunk (256)
+    t0s = np.linspace(0, 4 * np.pi, 600, endpoint=False)
+    w = np.stack([flat_w_hat(8, M, Gamma, t) for t in t0s], axis=1)
+    res = contact_times(w, M, -np.cos(t0s), method="grid")
+    assert res.ok.all() and np.all(np.abs(wrap(res.tc - t0s, M)) <= 1e-12)
 
 
 # ---------------------------------------------------------------- manufactured table

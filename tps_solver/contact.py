@@ -440,27 +440,36 @@ def _newton_nodes(w, level, t, M, *, lo=None, hi=None, tol, maxiter, max_step=No
     return t, converged
 
 
-def _grid_candidates(w, level, M, oversample):
-    """FFT synthesis on a fine grid; steepest up-crossing bracket per node."""
+def _grid_candidates(w, level, M, oversample, chunk=256):
+    """FFT synthesis on a fine grid; steepest up-crossing bracket per node.
+
+    Nodes are processed in chunks of ``chunk`` columns to bound the memory
+    (``oversample * (2N+1) * chunk`` complex numbers).
+    """
     N = (w.shape[0] - 1) // 2
     K = sp_fft.next_fast_len(oversample * (2 * N + 1))
-    period = 2.0 * np.pi * M
-    C = np.zeros((K, w.shape[1]), dtype=complex)
-    C[np.arange(-N, N + 1) % K] = w
-    D = sp_fft.ifft(C, axis=0, norm="forward").real - level
-    Dn = np.roll(D, -1, axis=0)
-    up = (D < 0) & (Dn >= 0)
-    score = np.where(up, Dn - D, -np.inf)
-    j = np.argmax(score, axis=0)
-    found = up.any(axis=0)
-    cols = np.arange(w.shape[1])
-    h = period / K
+    h = 2.0 * np.pi * M / K
+    n_nodes = w.shape[1]
+    j = np.zeros(n_nodes, dtype=int)
+    d0, d1 = np.zeros(n_nodes), np.zeros(n_nodes)
+    found = np.zeros(n_nodes, dtype=bool)
+    count = np.zeros(n_nodes, dtype=int)
+    rows = np.arange(-N, N + 1) % K
+    for start in range(0, n_nodes, chunk):
+        sl = slice(start, min(start + chunk, n_nodes))
+        C = np.zeros((K, sl.stop - sl.start), dtype=complex)
+        C[rows] = w[:, sl]
+        D = sp_fft.ifft(C, axis=0, norm="forward").real - level[sl]
+        Dn = np.roll(D, -1, axis=0)
+        up = (D < 0) & (Dn >= 0)
+        jj = np.argmax(np.where(up, Dn - D, -np.inf), axis=0)
+        cols = np.arange(D.shape[1])
+        j[sl], d0[sl], d1[sl] = jj, D[jj, cols], Dn[jj, cols]
+        found[sl], count[sl] = up.any(axis=0), up.sum(axis=0)
     lo = j * h
-    hi = lo + h
-    d0, d1 = D[j, cols], Dn[j, cols]
     with np.errstate(divide="ignore", invalid="ignore"):
-        start = lo + h * np.where(found, -d0 / (d1 - d0), 0.5)
-    return lo, hi, start, found, up.sum(axis=0)
+        start_t = lo + h * np.where(found, -d0 / (d1 - d0), 0.5)
+    return lo, lo + h, start_t, found, count
 
 
 def _polynomial_candidates(w_node, level, M, circle_tol):
