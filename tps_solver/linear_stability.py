@@ -56,6 +56,13 @@ The paper states that :math:`\gamma = 1` (both families) and :math:`\gamma = 0`
   (:math:`\gamma^2 = 0.04838032` at :math:`\kappa = 5`).  On the imaginary axis
   :math:`\gamma = i\beta` both families have an infinite sequence of roots,
   :math:`\lambda = -k^2(1 + \beta^2)`.
+* Limits (measured, see ``validation/linear_stability.py``): for
+  :math:`\kappa \to 0` the sinuous root behaves as :math:`\gamma_1^2 - 1 \approx
+  -\tfrac43\kappa^2`, i.e. :math:`\sigma \approx -\nu k^4 h^2/3`, and the
+  least-damped varicose root tends to :math:`\gamma = i\sqrt3`
+  (:math:`\sigma \to -4\nu k^2`); for :math:`\kappa \to \infty` both families
+  tend to the single-free-surface root of :math:`4\gamma = (\gamma^2+1)^2`, i.e.
+  :math:`\gamma^3 + \gamma^2 + 3\gamma - 1 = 0`, :math:`\gamma = 0.2955977425`.
 * There are **no** roots with :math:`\gamma > 1` (i.e. :math:`\sigma > 0`):
   concavity of tanh gives :math:`\tanh\gamma\kappa / \tanh\kappa \le \gamma \le
   (\gamma^2+1)^2/(4\gamma)` with equality only at :math:`\gamma = 1`.  Off the
@@ -175,11 +182,18 @@ def _phi_upper(d, kappa, mode):
     p = kappa - d
     k2 = kappa * kappa
     Tk = float(_tanh_minus_x(np.array(kappa)))
+    tk = math.tanh(kappa)
     dT = _dT(p, d, kappa)
+    # for kappa > 1 the T-form trades a cancellation ~kappa for nothing away from p = kappa;
+    # there the plain form [F(p)] / (p^2 - kappa^2) is better conditioned
+    direct = (kappa > 1.0) & (d > 0.25 * kappa)
+    den = np.where(direct, (p - kappa) * (p + kappa), 1.0)
     if mode == "sinuous":
-        return (kappa * d * (2.0 * kappa - d) + 4.0 * kappa ** 3 * (_tanh_minus_x(p) + kappa * dT) / (p + kappa)
-                - (p * p + 3.0 * k2) * Tk)
-    gk = math.tanh(kappa) / kappa
+        t_form = (kappa * d * (2.0 * kappa - d) + 4.0 * kappa ** 3 * (_tanh_minus_x(p) + kappa * dT) / (p + kappa)
+                  - (p * p + 3.0 * k2) * Tk)
+        plain = (4.0 * kappa ** 3 * p * np.tanh(p) - (p * p + k2) ** 2 * tk) / den
+        return np.where(direct, plain, t_form)
+    gk = tk / kappa
     low = p < 0.5 * kappa
     p_low = np.where(low, p, 0.5 * kappa)
     small = p_low < 1e-4
@@ -189,7 +203,10 @@ def _phi_upper(d, kappa, mode):
     # g(p) - g(k) = (k - p)(tanh k - R) / (p k) with R = k (1 + dT)  =>  Q = (k dT - T(k)) / (p k (p + k))
     q_high = (kappa * np.where(low, 0.0, dT) - Tk) / (p_high * kappa * (p_high + kappa))
     Q = np.where(low, q_low, q_high)
-    return (p * p + k2) ** 2 * Q + gk * (p * p + 3.0 * k2)
+    t_form = (p * p + k2) ** 2 * Q + gk * (p * p + 3.0 * k2)
+    g_p = np.where(p < 1e-4, 1.0 - p ** 2 / 3.0, np.tanh(p) / np.where(p < 1e-4, 1.0, p))
+    plain = ((p * p + k2) ** 2 * g_p - 4.0 * kappa ** 3 * tk) / den
+    return np.where(direct, plain, t_form)
 
 
 def _phi_lower(m, kappa, mode):
