@@ -32,14 +32,14 @@ flagged ``ok=False`` when ``slope / bound < min_slope_ratio`` (default 0.25).
 For a level strictly inside the jump the ratio of the jump crossing is
 :math:`\ge 0.6` asymptotically (:math:`\sin x/x` at :math:`\mathrm{Si}(x) =
 \pm\pi/2`); flight crossings have ratio :math:`O(1/N)`; crossings on the Gibbs
-ripples have ratio :math:`\le 0.22`.  A node is also flagged when no
+ripples have ratio :math:`\lesssim 0.22` (Dirichlet-kernel estimate, not a bound).  A node is also flagged when no
 up-crossing exists or Newton's method fails to reach the residual tolerance.
 
 Methods
 -------
 ``"grid"``
-    The series (and its derivative) are synthesised on ``oversample * (2N+1)``
-    equispaced times by one FFT per node (vectorised over nodes), the
+    The series is synthesised on ``oversample * (2N+1)`` equispaced times by
+    one FFT per node (vectorised over nodes, in chunks), the
     up-crossing brackets are located, the bracket with the steepest secant is
     chosen and refined by bracket-safeguarded Newton.  Cost
     :math:`O(N\log N)` per node.
@@ -48,10 +48,12 @@ Methods
     eigenvalues) on every node; roots with :math:`||z| - 1| <`
     ``circle_tol`` are mapped to :math:`t = \arg z/\alpha \bmod T`,
     Newton-polished, and the rule is applied.  Cost :math:`O(N^3)` per node
-    (about 0.9 s per node at N = 256 on the reference machine).
+    (measured 0.9-2 s per node at N = 256 with single-threaded BLAS, far more
+    with contended multithreaded BLAS; the grid needs about 1 ms).
 ``"track"``
     Newton's method from ``tc_guess`` (:math:`O(N)` per node and iteration),
-    with steps clamped to a quarter of the jump width :math:`T/(4N)`.  A node
+    with steps clamped to :math:`T/(4(2N+1))`, about an eighth of the width
+    of the jump's rise.  A node
     is accepted only if Newton converges to an up-crossing that passes the
     same safety test; otherwise that node falls back to the global method
     ``fallback`` (``"grid"`` by default).
@@ -72,8 +74,8 @@ the value at the contact and hence an :math:`O(N^{-2})` error in :math:`t_c`.
 (:func:`kink_tail`) and re-polishes -- but only at nodes where the fit is
 trustworthy (relative standard error of :math:`K` at most 5 % and fitted jump
 offset :math:`|\delta| N\alpha \le 0.1`); ``tail_applied`` says where.  On
-manufactured data this turns the :math:`O(N^{-2})` error of a kink at the
-contact into about :math:`N^{-4}`; where the top harmonics also carry other
+manufactured data this reduces the :math:`O(N^{-2})` error of a kink at the
+contact by factors :math:`10^4`-:math:`10^6` at :math:`N \ge 64`; where the top harmonics also carry other
 singularities (a kink elsewhere, an unresolved steep feature) the fit is
 unreliable and the correction is skipped (it would make things worse).  When
 the level is *not* the mean at the jump (an unconverged iterate) the truncated
