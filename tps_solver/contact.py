@@ -359,7 +359,7 @@ def jump_asymptotics(w_hat, tc, M, fraction=0.5):
     Bunch
         ``jump`` (J), ``kink`` (K), ``kink_stderr`` (standard error of K from the
         residual of the fit), ``offset`` (:math:`\delta`) and ``jump_abs`` (the
-        median of :math:`|y_n|`: insensitive to the offset, equal to J when the
+        median of :math:`|y_n|`, independent of ``tc``: equal to J when the
         jump dominates the top harmonics, larger when unresolved smooth content
         does, ~0 without a jump), each of shape (n_nodes,) (scalars for 1-D input).
 
