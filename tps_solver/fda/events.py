@@ -1,0 +1,211 @@
+r"""The event layer shared by both integrators: impacts (54), sticking, lift-off.
+
+Rules (stated once, used by ``method="exact"`` and ``method="ode"``):
+
+* **Contact set (54).**  All free nodes that reach :math:`\zeta = 0` within the
+  integrator's simultaneity window of the earliest contact are one set
+  :math:`\mathscr P` and are processed together: :math:`\zeta = 0` and the
+  impact rule is applied to the pre-impact velocities of the whole set.
+* **Impact rule.**  A small replaceable function
+  ``rule(w_minus, contact, e, lattice, free) -> w_plus`` (full arrays).
+  ``"point"``: restitution (11)/(54), :math:`w^+ = -e\,w^-` on the set only.
+  ``"diffused"``: the paper's (67) taken literally (unnormalised),
+  :math:`w^+(r) = w^-(r) - (1+e)\sum_{c\in\mathscr P} w^-(r_c)\,e^{-|r-r_c|/\rho_c}`
+  on the free nodes (stuck nodes stay stuck).  This is the extension point for
+  a regularised impact model with a physical cut-off length.
+* **Sticking (hazard 4).**  A contact node whose impact speed is at most
+  ``stick_velocity`` (a chattering sequence: the remaining bounces of the
+  geometric series have heights below ``stick_velocity**2 / (2|a|)``), or whose
+  rebound velocity is not positive (``e = 0``), is set to :math:`w = \zeta = 0`;
+  it *sticks* if its free acceleration :math:`a = g + (\underline L\underline w)_i`
+  is :math:`\le 0`, otherwise it stays free at rest and lifts off at once.
+* **Lift-off.**  A stuck node is released (:math:`w = \zeta = 0`, free) when its
+  free acceleration becomes positive (Sec. 4 after (37): :math:`g \to H(\zeta)g`),
+  including at once when an impact next to it makes it jump positive.
+* **Event bound.**  More than ``max_events_per_cycle`` events within one forcing
+  cycle :math:`2\pi` end the run with ``status = 2`` and the state so far.
+
+Every event is logged as a record ``(t, node, kind, w_before)`` with ``kind`` in
+``{"impact", "stick", "liftoff"}``; an impact that ends in sticking is logged
+once, as ``"stick"``, with its impact velocity.
+"""
+import math
+
+import numpy as np
+
+from .._validation import check_choice, check_nonnegative, check_positive
+
+__all__ = ["EVENT_DTYPE", "point_impact", "diffused_impact", "make_impact_rule", "EventLog",
+           "event_sets", "apply_contacts", "apply_liftoff", "pulled_off"]
+
+EVENT_DTYPE = np.dtype([("t", float), ("node", np.int64), ("kind", "U7"), ("w_before", float)])
+IMPACTS = ("point", "diffused")
+
+
+def point_impact(w_minus, contact, e, lattice, free):
+    """Restitution (54): ``w+ = -e w-`` on the contact set, other nodes unchanged.
+
+    Parameters
+    ----------
+    w_minus : ndarray of float, shape (n_nodes,)
+    contact : ndarray of int
+    e : float
+    lattice : Lattice
+    free : ndarray of bool, shape (n_nodes,)
+
+    Returns
+    -------
+    w_plus : ndarray of float, shape (n_nodes,)
+
+    Examples
+    --------
+    >>> point_impact(np.array([-1.0, -2.0]), np.array([1]), 0.5, None, None)
+    array([-1.,  1.])
+    """
+    w = w_minus.copy()
+    w[contact] = -e * w_minus[contact]
+    return w
+
+
+def diffused_impact(w_minus, contact, e, lattice, free, rho_c):
+    r"""The diffused Stosslet (67), literal and unnormalised, on the free nodes.
+
+    :math:`w^+(r) = w^-(r) - (1+e)\sum_{c} w^-(r_c)\exp(-|r - r_c|/\rho_c)`.
+    """
+    d = np.abs(lattice.nodes[:, None] - lattice.nodes[contact][None, :])
+    kick = -(1.0 + e) * (np.exp(-d / rho_c) @ w_minus[contact])
+    w = w_minus.copy()
+    w[free] += kick[free]
+    return w
+
+
+def make_impact_rule(impact="point", rho_c=None):
+    """Return the impact rule for ``impact`` ("point" | "diffused" with ``rho_c``) or a callable.
+
+    Returns
+    -------
+    rule : callable
+        ``rule(w_minus, contact, e, lattice, free) -> w_plus``.
+    cutoff : dict
+        ``{"kind": ..., "length": ...}``: the cut-off length in force (hazard 8);
+        for point impacts it is the lattice spacing (filled in by the caller).
+    """
+    if callable(impact):
+        return impact, {"kind": "custom", "length": None}
+    impact = check_choice(impact, "impact", IMPACTS)
+    if impact == "point":
+        if rho_c is not None:
+            check_nonnegative(rho_c, "rho_c")
+        return point_impact, {"kind": "lattice spacing", "length": None}
+    rho_c = check_positive(rho_c, "rho_c") if rho_c is not None else None
+    if rho_c is None:
+        raise ValueError("rho_c must be a finite number > 0 when impact='diffused', got None")
+
+    def rule(w_minus, contact, e, lattice, free):
+        return diffused_impact(w_minus, contact, e, lattice, free, rho_c)
+    return rule, {"kind": "diffused Stosslet (67)", "length": rho_c}
+
+
+class EventLog:
+    """Time-ordered event records with a per-cycle budget (hazard 4)."""
+
+    def __init__(self, t_start, max_events_per_cycle):
+        self.records = []
+        self.t_start = t_start
+        self.max_per_cycle = max_events_per_cycle
+        self._cycle = 0
+        self._count = 0
+
+    def add(self, t, nodes, kind, w_before):
+        cycle = int(math.floor((t - self.t_start) / (2.0 * math.pi)))
+        if cycle != self._cycle:
+            self._cycle, self._count = cycle, 0
+        for j, wb in zip(np.atleast_1d(nodes), np.atleast_1d(w_before)):
+            self.records.append((float(t), int(j), kind, float(wb)))
+        self._count += np.size(nodes)
+
+    @property
+    def exceeded(self):
+        """True once a forcing cycle holds more events than allowed."""
+        return self._count > self.max_per_cycle
+
+    def to_array(self):
+        """The records as a ``numpy.recarray`` with fields t, node, kind, w_before."""
+        arr = np.array(self.records, dtype=EVENT_DTYPE)
+        return arr.view(np.recarray)
+
+
+def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a):
+    r"""The simultaneous contact set (54) and lift-off set at an event time ``t``.
+
+    A free node belongs to the contact set if it is approaching the plate
+    (:math:`w < 0`, or :math:`w = 0` with :math:`a \le 0`) and its height is at most
+    ``max(time_tol * |w|, eps_z)``, i.e. it reaches the plate within ``time_tol``
+    of ``t`` (or is at the plate to round-off).  A stuck node lifts off if its
+    free acceleration :math:`a` is positive beyond round-off ``eps_a``, or is within
+    ``time_tol`` of turning positive with :math:`\dot a > 0`.
+
+    Returns
+    -------
+    contact, liftoff : ndarray of int
+        Node indices.
+    """
+    g = math.sin(t) - 1.0 / Gamma
+    accF = L_FF @ wF + g
+    accS = g + L_SF @ wF
+    daccS = math.cos(t) + L_SF @ accF
+    eps_w = 64 * np.finfo(float).eps * (1.0 + np.abs(wF).max(initial=0.0))
+    eps_acc = 64 * np.finfo(float).eps * (1.0 + abs(g) + np.abs(L_FF) @ np.abs(wF))
+    approaching = (wF < -eps_w) | ((wF <= eps_w) & (accF < -eps_acc))
+    contact = F[(zF <= np.maximum(time_tol * np.maximum(-wF, 0.0), eps_z)) & approaching]
+    near = accS >= -np.maximum(time_tol * np.maximum(daccS, 0.0), eps_a)
+    liftoff = S[(accS > eps_a) | (near & (daccS > 0.0))]
+    return contact, liftoff
+
+
+def apply_contacts(t, w, zeta, stuck, contact, lattice, Gamma, e, rule, stick_velocity, log):
+    """Process one simultaneous contact set in place (restitution, sticking). Returns the stuck nodes."""
+    w_minus = w[contact].copy()
+    free = ~stuck
+    w_new = rule(w, contact, e, lattice, free)
+    w_new[stuck] = 0.0
+    zeta[contact] = 0.0
+    slow = (np.abs(w_minus) <= stick_velocity) | (w_new[contact] <= 0.0)
+    sticks = np.empty(0, dtype=int)
+    if np.any(slow):
+        cand = contact[slow]
+        w_new[cand] = 0.0
+        acc = math.sin(t) - 1.0 / Gamma + lattice.operator[cand] @ w_new
+        sticks = cand[acc <= 0.0]
+        stuck[sticks] = True
+    w[:] = w_new
+    is_stick = np.isin(contact, sticks)
+    if np.any(~is_stick):
+        log.add(t, contact[~is_stick], "impact", w_minus[~is_stick])
+    if np.any(is_stick):
+        log.add(t, contact[is_stick], "stick", w_minus[is_stick])
+    return sticks
+
+
+def apply_liftoff(t, w, zeta, stuck, nodes, log):
+    """Release stuck nodes in place at rest on the plate."""
+    stuck[nodes] = False
+    w[nodes] = 0.0
+    zeta[nodes] = 0.0
+    log.add(t, nodes, "liftoff", np.zeros(np.size(nodes)))
+
+
+def pulled_off(t, w, stuck, lattice, Gamma):
+    """Stuck nodes whose free acceleration is positive beyond round-off right now.
+
+    Called after a contact set is processed: an impact next to a stuck node
+    changes :math:`(\\underline L\\underline w)_i` discontinuously and may pull the node
+    off the plate at the same instant.
+    """
+    S = np.flatnonzero(stuck)
+    if S.size == 0:
+        return S
+    L = lattice.operator[S]
+    acc = math.sin(t) - 1.0 / Gamma + L @ w
+    eps_a = 64 * np.finfo(float).eps * (1.0 + abs(math.sin(t) - 1.0 / Gamma) + np.abs(L) @ np.abs(w))
+    return S[acc > eps_a]
