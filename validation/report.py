@@ -1,0 +1,295 @@
+"""Assemble ``validation/REPORT.md`` from the section files written by the validation scripts.
+
+Every number in the report is written by the script that measured it, into
+``validation/sections/<topic>.md``; :func:`build_report` only concatenates
+those files (in :data:`SECTION_ORDER`, unknown topics alphabetically at the
+end) under a header that records the machine and the date.  The report's
+numbers therefore always equal what the scripts printed.
+
+Also provides the small helpers the validation scripts share:
+:func:`markdown_table`, :func:`write_section`, :func:`median_time` and
+:func:`optional_import`.
+
+Run ``python validation/report.py`` to rebuild the report from the existing
+sections (no computation).
+"""
+import datetime
+import os
+import platform
+import re
+import sys
+import time
+
+import numpy as np
+
+VALIDATION_DIR = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(VALIDATION_DIR)
+SECTIONS_DIR = os.path.join(VALIDATION_DIR, "sections")
+FIGURES_DIR = os.path.join(VALIDATION_DIR, "figures")
+REPORT_PATH = os.path.join(VALIDATION_DIR, "REPORT.md")
+
+#: Fixed order of the known sections (file stem, title used when the section is missing).
+SECTION_ORDER = (
+    ("flat", "Flat layer (bouncing ball), eqs. (17)-(19)"),
+    ("linear_stability", "Linear stability of flat layers, eq. (35)"),
+    ("helmholtz", "Helmholtz solver, eqs. (45), (48)-(50)"),
+    ("contact", "Contact-time solver, eq. (46)"),
+    ("tps", "Time-periodic solver (TPS)"),
+    ("flat_tps_fda", "Flat layer: FlatLayer vs TPS vs FDA"),
+    ("kink", "Kinks"),
+    ("oscillon", "Oscillons"),
+    ("fda", "Event-driven FDA, eqs. (51)-(63)"),
+    ("fda_benchmark", "FDA benchmark"),
+    ("cutoff", "Cut-off length (DESIGN hazard 8)"),
+    ("speed", "Speed against error"),
+    ("figures", "The paper's figures"),
+    ("discrepancies", "The paper's three discrepancies"),
+)
+
+
+def markdown_table(rows, columns):
+    """Format ``rows`` as a GitHub markdown table.
+
+    Parameters
+    ----------
+    rows : list of dict
+    columns : list of (str, str or callable)
+        ``(header, key)`` pairs; ``key`` is a dict key, or a callable of the
+        row returning the cell text.  Floats are written with ``%.3g``
+        (``%.2e`` below 1e-3), ``None`` as an em dash.
+
+    Returns
+    -------
+    text : str
+
+    Examples
+    --------
+    >>> print(markdown_table([{"a": 1, "b": 2.5e-12}], [("a", "a"), ("b", "b")]))
+    | a | b |
+    |---|---|
+    | 1 | 2.50e-12 |
+    """
+    lines = ["| " + " | ".join(h for h, _ in columns) + " |",
+             "|" + "---|" * len(columns)]
+    for row in rows:
+        cells = []
+        for _, key in columns:
+            value = key(row) if callable(key) else row.get(key)
+            cells.append(format_value(value))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def format_value(value):
+    """Text of one table cell (see :func:`markdown_table`)."""
+    if value is None:
+        return "—"
+    if isinstance(value, (bool, np.bool_)):
+        return "yes" if value else "no"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        value = float(value)
+        if not np.isfinite(value):
+            return str(value)
+        if value == 0.0:
+            return "0"
+        if abs(value) < 1e-3 or abs(value) >= 1e5:
+            return f"{value:.2e}"
+        return f"{value:.4g}"
+    return str(value)
+
+
+def write_section(name, text, directory=None):
+    """Write ``text`` to ``<directory>/<name>.md`` (default ``validation/sections``); return the path."""
+    directory = directory or SECTIONS_DIR
+    os.makedirs(directory, exist_ok=True)
+    path = os.path.join(directory, f"{name}.md")
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(text.rstrip() + "\n")
+    return path
+
+
+def median_time(func, repeats=5):
+    """Median wall time (s) of ``func()`` over ``repeats`` calls, and the last return value.
+
+    Returns
+    -------
+    seconds : float
+    value : object
+    """
+    times, value = [], None
+    for _ in range(max(1, int(repeats))):
+        start = time.perf_counter()
+        value = func()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times)), value
+
+
+def optional_import(name):
+    """Import the module ``name`` if it exists, else return None.
+
+    Only the absence of that module itself is tolerated; an import error
+    raised *inside* an existing module propagates.
+    """
+    import importlib
+
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        if exc.name == name:
+            return None
+        raise
+
+
+def machine_info():
+    """The machine and library versions, as a dict of strings."""
+    import scipy
+
+    info = {
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpu_count": str(os.cpu_count()),
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+    }
+    try:
+        import mpmath
+
+        info["mpmath"] = mpmath.__version__
+    except ImportError:  # pragma: no cover - mpmath is a dependency
+        pass
+    try:
+        import tps_solver
+
+        info["tps_solver"] = tps_solver.__version__
+    except ImportError:  # pragma: no cover
+        pass
+    return info
+
+
+def _title(text, default):
+    for line in text.splitlines():
+        m = re.match(r"^#{1,6}\s+(.*\S)\s*$", line)
+        if m:
+            return m.group(1)
+    return default
+
+
+def _anchor(title):
+    """GitHub's heading anchor for ``title``."""
+    slug = re.sub(r"[^\w\- ]", "", title.strip().lower())
+    return slug.replace(" ", "-")
+
+
+def ordered_sections(directory=None):
+    """The section files in report order.
+
+    Returns
+    -------
+    present : list of (str, str)
+        ``(stem, path)`` of the existing files: the known ones in
+        :data:`SECTION_ORDER`, then unknown ones alphabetically.
+    missing : list of (str, str)
+        ``(stem, title)`` of known sections without a file.
+    """
+    directory = directory or SECTIONS_DIR
+    files = {}
+    if os.path.isdir(directory):
+        for name in os.listdir(directory):
+            if name.endswith(".md"):
+                files[name[:-3]] = os.path.join(directory, name)
+    known = [stem for stem, _ in SECTION_ORDER]
+    present = [(s, files[s]) for s in known if s in files]
+    present += [(s, files[s]) for s in sorted(files) if s not in known]
+    missing = [(s, t) for s, t in SECTION_ORDER if s not in files]
+    return present, missing
+
+
+def build_report(path=REPORT_PATH, sections_dir=None, date=None, notes=None):
+    """Write the validation report: header, table of contents, every section file.
+
+    Parameters
+    ----------
+    path : str
+        Output file (default ``validation/REPORT.md``).
+    sections_dir : str, optional
+        Folder of the section files (default ``validation/sections``).
+    date : datetime.datetime, optional
+        Time stamp (default: now, UTC).
+    notes : list of str, optional
+        Extra markdown lines for the header (e.g. the run log of ``run_all``).
+
+    Returns
+    -------
+    path : str
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> _ = write_section("speed", "## Speed\\n\\n| a |\\n|---|\\n| 1 |", d)
+    >>> out = build_report(os.path.join(d, "R.md"), sections_dir=d)
+    >>> "| 1 |" in open(out).read()
+    True
+    """
+    present, missing = ordered_sections(sections_dir)
+    date = date or datetime.datetime.now(datetime.timezone.utc)
+    info = machine_info()
+    bodies = []
+    for stem, file in present:
+        with open(file, encoding="utf-8") as fh:
+            bodies.append((stem, fh.read()))
+    out = [
+        "# tps_solver validation report",
+        "",
+        "Generated by `python -m validation.run_all` (`tps-solver validate`), or re-assembled from the",
+        "existing section files by `python validation/report.py`. Every section below is the file",
+        "`validation/sections/<topic>.md` written by the script named in it; this report only",
+        "concatenates them, so its numbers are the numbers the scripts printed.",
+        "",
+        f"- date: {date.strftime('%Y-%m-%d %H:%M %Z')}",
+        f"- machine: {info['platform']} ({info['processor']}), {info['cpu_count']} CPUs",
+        "- versions: " + ", ".join(f"{k} {info[k]}" for k in ("python", "numpy", "scipy", "mpmath", "tps_solver")
+                                   if k in info),
+        "",
+    ]
+    if notes:
+        out += list(notes) + [""]
+    out += [
+        "## Contents",
+        "",
+    ]
+    for stem, text in bodies:
+        title = _title(text, stem)
+        out.append(f"- [{title}](#{_anchor(title)}) (`sections/{stem}.md`)")
+    for stem, title in missing:
+        out.append(f"- {title}: *not yet measured* (no `sections/{stem}.md`)")
+    out.append("")
+    for stem, text in bodies:
+        out.append(f"<!-- section: sections/{stem}.md -->")
+        out.append(text.rstrip())
+        out.append("")
+    if missing:
+        out.append("## Not yet measured")
+        out.append("")
+        for stem, title in missing:
+            out.append(f"- {title} (`validation/sections/{stem}.md` does not exist)")
+        out.append("")
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write("\n".join(out))
+    return path
+
+
+def main():
+    """Re-assemble ``validation/REPORT.md`` from the existing section files."""
+    path = build_report()
+    present, missing = ordered_sections()
+    print(f"wrote {path}: {len(present)} section(s), {len(missing)} not yet measured")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
