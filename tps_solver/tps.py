@@ -70,6 +70,7 @@ from .harmonics import evaluate, g_hat, sawtooth, sawtooth_hat
 __all__ = ["solve_kink", "solve_oscillon", "PeriodicSolution", "load"]
 
 _SCHEMES = ("newton", "picard", "paper")
+_CORRECTOR_ITER = 12      # Newton corrector steps per continuation point (quadratic: ~4 suffice)
 
 
 class PeriodicSolution(Bunch):
@@ -286,8 +287,8 @@ def _newton(problem, tc, tol, max_iter, callback=None):
         big = np.maximum(np.abs(diag), 1e-3)
         precond = LinearOperator((n, n), matvec=lambda v: np.asarray(v).ravel() / big, dtype=float)
         rtol = min(1e-2, 0.1 * history[-1])
-        dx, info = gmres(J, -F, rtol=max(rtol, 1e-13), atol=0.0, restart=min(n, 60),
-                         maxiter=20, M=precond)
+        dx, info = gmres(J, -F, rtol=max(rtol, 1e-13), atol=0.0, restart=min(n, 50),
+                         maxiter=4, M=precond)
         if not np.all(np.isfinite(dx)):
             status, message = 2, "GMRES returned a non-finite step"
             break
@@ -349,7 +350,7 @@ def _continuation(make_problem, tc, tol, max_iter, nu_start, callback=None, min_
         else:
             tc_pred = tc
         trial_problem = make_problem(math.exp(s_try))
-        out = _newton(trial_problem, tc_pred, tol, max_iter)
+        out = _newton(trial_problem, tc_pred, tol, min(max_iter, _CORRECTOR_ITER))
         total += out[4]
         if out[2] == 0:
             s_prev, tc_prev = s, tc
