@@ -1,0 +1,321 @@
+r"""Stability of limit cycles by the event-driven FDA: :func:`check_stability`.
+
+A limit cycle -- a :class:`~tps_solver.FlatLayer` or a TPS ``PeriodicSolution``
+-- is sampled at a section time :math:`t_s` onto a lattice and integrated for
+``periods`` periods with :func:`~tps_solver.fda.simulate`.
+
+What is measured
+----------------
+* **defects** -- per period, :math:`\max_i|\zeta_i(t_s+(k+1)T)-\zeta_i(t_s+kT)|` and
+  the same for :math:`w` (a periodic orbit of the lattice gives round-off).
+* **growth factor** -- a random zero-mean perturbation of relative size
+  ``perturbation`` is added to :math:`(\underline w, \underline\zeta)` and
+  followed next to the reference run; the distance
+  :math:`d_k = \max_i\max(|\Delta\zeta_i|, |\Delta w_i|)` at :math:`t_s + kT` is
+  fitted by :math:`d_k \propto \rho^k` over the second half of the run;
+  :math:`\rho` is the growth factor per period (< 1: stable).
+* **multipliers** (hazard 7).  The period map is only piecewise smooth: where
+  several nodes touch the plate (nearly) together, a perturbation changes the
+  *order* of their impacts, and the coupling makes the result depend on that
+  order.  Multipliers are therefore reported only where the map is shown to be
+  differentiable:
+
+  - the **uniform mode** of a flat layer (all nodes perturbed alike keep hitting
+    the plate as one set (54)) is always differentiable; its 2x2 Jacobian is
+    obtained by central differences of the lattice period map and its
+    eigenvalues must equal :meth:`FlatLayer.floquet_multipliers`;
+  - the **full** period-map Jacobian is computed (``jacobian=True``) by forward
+    *and* backward differences along every coordinate.  The map is declared
+    differentiable only if the two one-sided Jacobians agree to
+    ``jacobian_rtol`` (relative to the largest entry); then the eigenvalues of
+    their mean are reported (``multipliers_kind = "full period map"``).  If they
+    disagree the map has a kink at the orbit; ``differentiable = False`` and only
+    the uniform-mode multipliers (flat layers) are reported.
+
+* **verdict** -- ``stable`` is True when the measured growth factor is below 1
+  and the last defect is below ``defect_tol``; the message states the lattice
+  cut-off in force (hazard 8): a verdict on a lattice with point impacts is a
+  verdict for that lattice spacing, not a converged statement.
+"""
+import math
+
+import numpy as np
+
+from ._result import Bunch
+from ._validation import check_choice, check_int, check_positive, check_real
+from .fda import Lattice, flat_state, simulate
+
+__all__ = ["check_stability", "StabilityResult"]
+
+
+class StabilityResult(Bunch):
+    """Result of :func:`check_stability`.
+
+    Attributes
+    ----------
+    defects : ndarray of float, shape (periods, 2)
+        Per period: max |zeta(t+T) - zeta(t)| and max |w(t+T) - w(t)| on the lattice.
+    initial_defect : ndarray of float, shape (2,)
+        The same after one period, measured against the sampled limit cycle itself.
+    growth_factor : float
+        Measured per-period amplification of a small random perturbation.
+    growth_history : ndarray of float, shape (periods + 1,)
+        Distance between the perturbed and the reference run at each section time.
+    multipliers : ndarray of complex
+        Period-map multipliers where the map is differentiable, by decreasing modulus.
+    multipliers_kind : str
+        ``"full period map"``, ``"uniform mode"`` or ``"none"``.
+    uniform_multipliers : ndarray of complex, shape (2,) or (0,)
+        Multipliers of the uniform (flat) mode, for flat layers.
+    differentiable : bool or None
+        Outcome of the one-sided Jacobian test (None if not run).
+    stable : bool
+    message : str
+    events_per_period : ndarray of int, shape (periods,)
+    sticking_nodes : ndarray of int
+        Nodes that stuck to the plate during the last period or are stuck at its end.
+    cutoff : dict
+        Regularisation length in force.
+    lattice, method, period, section_time
+    """
+
+
+def _is_flat(obj):
+    return hasattr(obj, "floquet_multipliers") and hasattr(obj, "W0")
+
+
+def _section_time(sol, T, n=256):
+    """Time in [0, T) at which the smallest height over the nodes is largest."""
+    ts = np.linspace(0.0, T, n, endpoint=False)
+    zmin = np.min(np.asarray(sol.height(ts)), axis=1)
+    return float(ts[int(np.argmax(zmin))])
+
+
+def _lattice_for_solution(sol, n_nodes, boundary):
+    nodes = np.asarray(sol.nodes, dtype=float)
+    geometry = sol.geometry
+    if geometry == "planar":
+        if n_nodes is None:
+            h = np.diff(nodes)
+            if np.allclose(h, h[0], rtol=1e-9, atol=0.0):
+                return Lattice(nodes, "planar", boundary, grid="uniform")
+            n_nodes = nodes.size
+        return Lattice.planar(n_nodes=n_nodes, length=nodes[-1] - nodes[0],
+                              center=0.5 * (nodes[0] + nodes[-1]), boundary=boundary)
+    if geometry == "axisymmetric":
+        if n_nodes is None:
+            return Lattice(nodes, "axisymmetric", "neumann", grid="custom")
+        return Lattice.axisymmetric(n_nodes=n_nodes, r_max=nodes[-1], grid="quasilog")
+    raise ValueError(f"solution.geometry must be 'planar' or 'axisymmetric', got {geometry!r}")
+
+
+def _sample_solution(sol, lattice, t):
+    nodes = np.asarray(sol.nodes, dtype=float)
+    w = np.asarray(sol.velocity(np.array([t])), dtype=float)[0]
+    z = np.asarray(sol.height(np.array([t])), dtype=float)[0]
+    if lattice.n_nodes != nodes.size or not np.allclose(lattice.nodes, nodes):
+        w = np.interp(lattice.nodes, nodes, w)
+        z = np.interp(lattice.nodes, nodes, z)
+    return w, z
+
+
+def _period_map(lattice, Gamma, e, w, z, t_s, T, method, kw):
+    run = simulate(lattice, Gamma, e, w, z, t_start=t_s, t_end=t_s + T, method=method, **kw)
+    if not run.success:
+        raise RuntimeError(run.message)
+    if np.any(run.stuck):
+        raise RuntimeError("a node is stuck at the section time; the period map is not a map of (w, zeta)")
+    return np.concatenate((run.w, run.zeta))
+
+
+def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6):
+    """Central-difference Jacobian of the period map restricted to uniform states (w, zeta)."""
+    J = np.empty((2, 2))
+    for col in range(2):
+        out = []
+        for sign in (1.0, -1.0):
+            dw = sign * h if col == 0 else 0.0
+            dz = sign * h if col == 1 else 0.0
+            y = _period_map(lattice, Gamma, e, w + dw, z + dz, t_s, T, method, kw)
+            n = lattice.n_nodes
+            out.append(np.array([np.mean(y[:n]), np.mean(y[n:])]))
+        J[:, col] = (out[0] - out[1]) / (2.0 * h)
+    mu = np.linalg.eigvals(J).astype(complex)
+    return mu[np.argsort(-np.abs(mu), kind="stable")]
+
+
+def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h):
+    """One-sided (forward, backward) Jacobians of the period map in (w, zeta)."""
+    n = lattice.n_nodes
+    y0 = np.concatenate((w, z))
+    base = _period_map(lattice, Gamma, e, w, z, t_s, T, method, kw)
+    Jp = np.empty((2 * n, 2 * n))
+    Jm = np.empty((2 * n, 2 * n))
+    for k in range(2 * n):
+        for sign, J in ((1.0, Jp), (-1.0, Jm)):
+            y = y0.copy()
+            y[k] = max(y[k] + sign * h, 0.0) if k >= n else y[k] + sign * h
+            step = y[k] - y0[k]
+            J[:, k] = (_period_map(lattice, Gamma, e, y[:n], y[n:], t_s, T, method, kw) - base) / step
+    return Jp, Jm
+
+
+def check_stability(solution, periods=20, n_nodes=None, method="exact", *, length=8.0,
+                    boundary=None, perturbation=1e-7, seed=0, jacobian=False, jacobian_step=1e-7,
+                    jacobian_rtol=1e-3, defect_tol=1e-6, impact="point", rho_c=None, **simulate_kw):
+    r"""Hand a limit cycle to the FDA and measure its stability (see the module docstring).
+
+    Parameters
+    ----------
+    solution : FlatLayer or PeriodicSolution
+        A flat layer, or a TPS solution (duck-typed: ``geometry``, ``nodes``,
+        ``Gamma``, ``e``, ``period``, ``flat``, ``velocity(t)``, ``height(t)``).
+    periods : int
+        Number of periods integrated, >= 2.
+    n_nodes : int, optional
+        Lattice size.  Flat layer: default 21.  TPS solution: default the
+        solution's own nodes; otherwise the solution is interpolated.
+    method : {"exact", "ode"}
+    length : float
+        Length of the flat planar lattice (flat layers only).
+    boundary : {"neumann", "pinned"}, optional
+        Planar boundary; default ``"neumann"`` for flat layers, ``"pinned"`` for kinks.
+    perturbation : float
+        Size of the random zero-mean perturbation, > 0.
+    seed : int
+        Seed of the perturbation.
+    jacobian : bool
+        Also compute the full one-sided period-map Jacobians (``4 n_nodes`` extra periods).
+    jacobian_step : float
+        Finite-difference step of the full Jacobian.
+    jacobian_rtol : float
+        Agreement required of the one-sided Jacobians for differentiability.
+    defect_tol : float
+        Largest final periodicity defect accepted for a stable verdict.
+    impact, rho_c
+        Impact rule passed to :func:`simulate` (the cut-off in force).
+    **simulate_kw
+        Further keywords for :func:`simulate` (e.g. ``stick_velocity``, ``rtol``).
+
+    Returns
+    -------
+    StabilityResult
+
+    Examples
+    --------
+    >>> from tps_solver import FlatLayer
+    >>> chk = check_stability(FlatLayer(Gamma=2.5, M=2, e=0.45), periods=4, n_nodes=6)
+    >>> bool(abs(chk.uniform_multipliers[0] - FlatLayer(Gamma=2.5, M=2, e=0.45).floquet_multipliers()[0]) < 1e-7)
+    True
+    """
+    periods = check_int(periods, "periods", minimum=2)
+    method = check_choice(method, "method", ("exact", "ode"))
+    perturbation = check_positive(perturbation, "perturbation")
+    jacobian_step = check_positive(jacobian_step, "jacobian_step")
+    jacobian_rtol = check_positive(jacobian_rtol, "jacobian_rtol")
+    defect_tol = check_positive(defect_tol, "defect_tol")
+    if boundary is not None:
+        boundary = check_choice(boundary, "boundary", ("neumann", "pinned"))
+    kw = dict(simulate_kw, impact=impact, rho_c=rho_c)
+    notes = []
+    if _is_flat(solution):
+        fl = solution
+        n = 21 if n_nodes is None else check_int(n_nodes, "n_nodes", minimum=3)
+        lattice = Lattice.planar(n_nodes=n, length=check_positive(length, "length"),
+                                 boundary=boundary or "neumann")
+        Gamma, e, T = fl.Gamma, fl.e, fl.period
+        t_s = fl.t0 + 0.5 * T
+        w0, z0 = flat_state(lattice, fl, t_s)
+        flat = fl
+    elif all(hasattr(solution, a) for a in ("geometry", "nodes", "velocity", "height", "period")):
+        sol = solution
+        if n_nodes is not None:
+            n_nodes = check_int(n_nodes, "n_nodes", minimum=3)
+        lattice = _lattice_for_solution(sol, n_nodes, boundary or "pinned")
+        Gamma, e, T = float(sol.Gamma), float(sol.e), float(sol.period)
+        t_s = _section_time(sol, T)
+        w0, z0 = _sample_solution(sol, lattice, t_s)
+        if np.any(z0 < 0.0):
+            notes.append(f"the solution has zeta < 0 at the section time (min {z0.min():.3g}); clipped to 0")
+            z0 = np.maximum(z0, 0.0)
+        flat = getattr(sol, "flat", None)
+    else:
+        raise ValueError("solution must be a FlatLayer or a PeriodicSolution (with geometry, nodes, "
+                         f"velocity, height, period), got {type(solution).__name__}")
+
+    t_eval = t_s + T * np.arange(periods + 1)
+    ref = simulate(lattice, Gamma, e, w0, z0, t_start=t_s, t_end=t_eval[-1], method=method,
+                   t_eval=t_eval, **kw)
+    Z, W = ref.zeta_eval, ref.w_eval
+    k_done = Z.shape[0]
+    defects = np.column_stack((np.max(np.abs(np.diff(Z, axis=0)), axis=1),
+                               np.max(np.abs(np.diff(W, axis=0)), axis=1))) if k_done > 1 else np.empty((0, 2))
+    initial_defect = defects[0] if defects.size else np.array([np.nan, np.nan])
+    ev = ref.events
+    per = np.floor((ev.t - t_s) / T).astype(int) if ev.size else np.empty(0, int)
+    events_per_period = np.bincount(per, minlength=periods)[:periods]
+    last = ev[per == periods - 1] if ev.size else ev
+    sticking = np.union1d(np.unique(last.node[last.kind == "stick"]) if ev.size else [],
+                          np.flatnonzero(ref.stuck)).astype(int)
+
+    # growth of a small random zero-mean perturbation
+    rng = np.random.default_rng(seed)
+    scale = perturbation * max(1.0, float(np.max(np.abs(w0))), float(np.max(z0)))
+    dw = rng.standard_normal(lattice.n_nodes)
+    dz = rng.standard_normal(lattice.n_nodes)
+    dw -= dw.mean()
+    dz -= dz.mean()
+    dw *= scale / np.max(np.abs(dw))
+    dz *= scale / np.max(np.abs(dz))
+    pert = simulate(lattice, Gamma, e, w0 + dw, np.maximum(z0 + dz, 0.0), t_start=t_s, t_end=t_eval[-1],
+                    method=method, t_eval=t_eval, **kw)
+    k = min(pert.zeta_eval.shape[0], k_done)
+    dist = np.maximum(np.max(np.abs(pert.zeta_eval[:k] - Z[:k]), axis=1),
+                      np.max(np.abs(pert.w_eval[:k] - W[:k]), axis=1))
+    half = k // 2
+    sel = np.arange(half, k)
+    good = dist[sel] > 0
+    if np.count_nonzero(good) >= 2:
+        slope = np.polyfit(sel[good], np.log(dist[sel][good]), 1)[0]
+        growth = float(math.exp(slope))
+    else:
+        growth = float("nan")
+    if np.max(dist) > 1e-2:
+        notes.append(f"the perturbation grew to {np.max(dist):.3g}: nonlinear regime, the growth "
+                     "factor is a lower bound")
+
+    uniform = np.empty(0, complex)
+    multipliers, kind, differentiable = np.empty(0, complex), "none", None
+    if flat is not None and _is_flat(solution):
+        uniform = _uniform_multipliers(lattice, Gamma, e, w0, z0, t_s, T, method, kw)
+        multipliers, kind = uniform, "uniform mode"
+    if jacobian:
+        Jp, Jm = _full_jacobian(lattice, Gamma, e, w0, z0, t_s, T, method, kw, jacobian_step)
+        gap = float(np.max(np.abs(Jp - Jm)))
+        big = float(np.max(np.abs(Jp) + np.abs(Jm)))
+        differentiable = gap <= jacobian_rtol * big
+        if differentiable:
+            mu = np.linalg.eigvals(0.5 * (Jp + Jm)).astype(complex)
+            multipliers, kind = mu[np.argsort(-np.abs(mu), kind="stable")], "full period map"
+        else:
+            notes.append(f"period map not differentiable at the orbit: one-sided Jacobians differ by "
+                         f"{gap:.3g} (largest entry {big:.3g}); impact order matters (hazard 7)")
+
+    cutoff = ref.cutoff
+    final_defect = float(np.max(defects[-1])) if defects.size else float("nan")
+    stable = bool(ref.success and np.isfinite(growth) and growth < 1.0 and final_defect <= defect_tol)
+    if not ref.success:
+        notes.insert(0, f"reference run stopped: {ref.message}")
+    verdict = "stable" if stable else "not stable"
+    msg = (f"{verdict} on this lattice ({lattice.geometry}, {lattice.n_nodes} nodes, "
+           f"cut-off: {cutoff['kind']} = {cutoff['length']:.4g}): growth factor {growth:.4g} per period, "
+           f"final defect {final_defect:.3g}, {events_per_period[-1] if events_per_period.size else 0} "
+           f"events in the last period, {sticking.size} sticking nodes")
+    if notes:
+        msg += "; " + "; ".join(notes)
+    return StabilityResult(
+        defects=defects, initial_defect=initial_defect, growth_factor=growth, growth_history=dist,
+        multipliers=multipliers, multipliers_kind=kind, uniform_multipliers=uniform,
+        differentiable=differentiable, stable=stable, message=msg, events_per_period=events_per_period,
+        sticking_nodes=sticking, cutoff=cutoff, lattice=lattice, method=method, period=T,
+        section_time=t_s, periods=periods, success=bool(ref.success))
