@@ -230,6 +230,13 @@ def test_winding_number_counts_manufactured_zeros():
     assert _winding_number(f, 0.0, 0.2)[0] == 0
 
 
+@pytest.mark.parametrize("mode", MODES)
+def test_completeness_for_many_roots(mode):
+    # regression: uniform sampling of the circle aliased near s = 0 and under-counted by 2 here
+    res = secular_roots(1.0, mode, 1000)
+    assert res.complete and res.n_enclosed == 1000 and np.all(np.diff(res.lam) < 0)
+
+
 def test_completeness_flag_detects_a_planted_complex_root():
     res = secular_roots(1.0, "sinuous", 6)
     center, radius = res.contour
