@@ -35,10 +35,10 @@ if _ROOT not in sys.path:
     sys.path.insert(0, _ROOT)
 
 from tps_solver import FlatLayer  # noqa: E402
-from validation.report import markdown_table, optional_import, write_section  # noqa: E402
+from validation.report import markdown_table, merged_config, optional_import, publish  # noqa: E402
 
 #: Fast configuration (tests, demo) and full configuration (``main``).
-FAST = dict(es=(0.45,), Ms=(2,), fractions=(0.5,), n_harmonics=16, n_nodes=24, size=8.0, tol=1e-12,
+FAST = dict(es=(0.45,), Ms=(1, 2), fractions=(0.5,), n_harmonics=16, n_nodes=24, size=8.0, tol=1e-12,
             fda_nodes=5, fda_periods=4, stability_periods=10, tps_stability=False)
 FULL = dict(es=(0.3, 0.45, 0.7), Ms=(1, 2), fractions=(0.25, 0.75), n_harmonics=30, n_nodes=60,
             size=10.0, tol=1e-12, fda_nodes=9, fda_periods=10, stability_periods=20, tps_stability=True)
@@ -281,8 +281,7 @@ def flat_comparison(config=None, **overrides):
     >>> max(r["tc_err"] for r in res["rows"] if r["solver"].startswith("TPS")) < 1e-10  # doctest: +SKIP
     True
     """
-    cfg = dict(FAST if config is None else config)
-    cfg.update(overrides)
+    cfg = merged_config(FAST, config, overrides)
     fda = optional("fda")
     stability = optional("stability")
     grid, skipped = cases(cfg["es"], cfg["Ms"], cfg["fractions"])
@@ -408,10 +407,7 @@ def render(result, command="python -m validation.flat_layer"):
 def main(config=None):
     """Run the full comparison, print the section and write ``validation/sections/flat_tps_fda.md``."""
     result = flat_comparison(FULL if config is None else config)
-    text = render(result)
-    print(text)
-    path = write_section("flat_tps_fda", text)
-    print(f"\nwrote {path}")
+    publish("flat_tps_fda", render(result))
     return result
 
 

@@ -7,8 +7,8 @@ end) under a header that records the machine and the date.  The report's
 numbers therefore always equal what the scripts printed.
 
 Also provides the small helpers the validation scripts share:
-:func:`markdown_table`, :func:`write_section`, :func:`median_time` and
-:func:`optional_import`.
+:func:`markdown_table`, :func:`write_section`, :func:`publish`,
+:func:`merged_config`, :func:`median_time` and :func:`optional_import`.
 
 Run ``python validation/report.py`` to rebuild the report from the existing
 sections (no computation).
@@ -108,6 +108,21 @@ def write_section(name, text, directory=None):
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text.rstrip() + "\n")
     return path
+
+
+def publish(name, text):
+    """Print a section's text and write it to ``validation/sections/<name>.md``; return the path."""
+    print(text)
+    path = write_section(name, text)
+    print(f"\nwrote {path}")
+    return path
+
+
+def merged_config(default, config=None, overrides=None):
+    """``config`` (or ``default`` if None) as a new dict, with ``overrides`` applied."""
+    cfg = dict(default if config is None else config)
+    cfg.update(overrides or {})
+    return cfg
 
 
 def median_time(func, repeats=5):
