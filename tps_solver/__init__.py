@@ -7,8 +7,9 @@ Public API (see ``README.md`` for a tour):
 
 * :class:`FlatLayer` -- the periodically bouncing flat layer, eqs. (17)-(19);
 * :func:`secular_roots`, :func:`growth_rates` -- linear stability, eq. (35);
-* :func:`solve_kink`, :func:`solve_oscillon`, :class:`PeriodicSolution`,
-  :func:`load` -- the spectral time-periodic solver (TPS), eqs. (38)-(50);
+* :func:`solve_kink`, :func:`solve_oscillon`, :func:`solve_lattice`,
+  :class:`PeriodicSolution`, :func:`load` -- the spectral time-periodic solver
+  (TPS), eqs. (38)-(50), on the continuum or on an FDA lattice;
 * :class:`Lattice`, :func:`simulate` -- the event-driven FDA, eqs. (51)-(63);
 * :func:`check_stability` -- hands a limit cycle to the FDA.
 
@@ -25,6 +26,7 @@ _LAZY = {
     "growth_rates": "linear_stability",
     "solve_kink": "tps",
     "solve_oscillon": "tps",
+    "solve_lattice": "tps",
     "PeriodicSolution": "tps",
     "load": "tps",
     "Lattice": "fda",

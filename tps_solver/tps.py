@@ -67,7 +67,7 @@ from ._validation import (check_array, check_choice, check_int, check_positive, 
 from .flat import FlatLayer
 from .harmonics import evaluate, g_hat, sawtooth, sawtooth_hat
 
-__all__ = ["solve_kink", "solve_oscillon", "PeriodicSolution", "load"]
+__all__ = ["solve_kink", "solve_oscillon", "solve_lattice", "PeriodicSolution", "load"]
 
 _SCHEMES = ("newton", "picard", "paper")
 _CORRECTOR_ITER = 12      # Newton corrector steps per continuation point (quadratic: ~4 suffice)
@@ -168,7 +168,9 @@ class PeriodicSolution(Bunch):
             message=self.message, nit=self.nit, residual=self.residual,
             residual_history=self.residual_history, min_shift=self.min_shift, scheme=self.scheme,
             tail_correction=self.tail_correction, coupling=self.coupling,
-            continuation_path=self.continuation_path)
+            continuation_path=self.continuation_path,
+            lattice=np.array([] if self.lattice is None else
+                             [self.lattice.geometry, self.lattice.boundary, self.lattice.grid]))
 
 
 def load(path):
@@ -190,7 +192,13 @@ def load(path):
         flat=flat, min_shift=bool(data["min_shift"]), scheme=str(data["scheme"]),
         tail_correction=bool(data["tail_correction"]), coupling=float(data["coupling"]),
         continuation_path=data["continuation_path"])
-    sol.spacing = float(sol.nodes[1] - sol.nodes[0])
+    sol.spacing = float(np.min(np.diff(sol.nodes)))
+    sol.lattice = None
+    if data["lattice"].size:
+        from .fda import Lattice
+
+        geometry, boundary, grid = (str(v) for v in data["lattice"])
+        sol.lattice = Lattice(sol.nodes, geometry, boundary, grid=grid)
     sol.checks = _physical_checks(sol)
     return sol
 
@@ -263,6 +271,30 @@ class _Problem:
 
         n = tc.size
         return LinearOperator((n, n), matvec=matvec, dtype=float), slope
+
+
+class _LatticeProblem(_Problem):
+    """The TPS on an FDA lattice: the continuum Laplacian replaced by the lattice operator."""
+
+    def __init__(self, lattice, flat, N, coupling=1.0):
+        from .discrete_helmholtz import LatticeHelmholtz
+
+        self.geometry = lattice.geometry
+        self.flat = flat
+        self.Gamma, self.M, self.t0, self.T = flat.Gamma, flat.M, flat.t0, flat.period
+        self.N = N
+        self.level = -math.cos(flat.t0)
+        self.n = np.arange(1, N + 1)
+        self.om = self.n / self.M
+        self.ghat = g_hat(N, self.M, self.Gamma)[N + 1:]
+        self.q_inf = -np.exp(-1j * self.om * self.t0) / self.Gamma - self.ghat
+        self.x = np.asarray(lattice.nodes, dtype=float)
+        self.parity = None
+        self.offset = 0
+        self.symmetry = None
+        self.coupling = coupling
+        self.lattice = lattice
+        self.solver = LatticeHelmholtz(lattice, self.M, N, coupling=coupling)
 
 
 def _wrap(tc, T):
@@ -514,8 +546,13 @@ def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geom
     T, M = flat.period, flat.M
     tc = _wrap(tc, T)
     w_full = _centred(w)
-    x = problem.x / math.sqrt(problem.coupling)     # the nodes of the problem actually solved
-    if geometry == "planar":
+    if isinstance(problem, _LatticeProblem):
+        x = problem.x                                # coupling < 1 is reported, nodes unchanged
+    else:
+        x = problem.x / math.sqrt(problem.coupling)  # the nodes of the problem actually solved
+    if isinstance(problem, _LatticeProblem):
+        nodes = x.copy()
+    elif geometry == "planar":
         # mirror.  kink: w_n(-x) = (-1)^n w_n(x), tc(-x) = tc(x) + T/2;  even: w_n(-x) = w_n(x)
         kink = problem.symmetry == "kink"
         sign = (-1.0) ** np.arange(-N, N + 1) if kink else np.ones(2 * N + 1)
@@ -542,7 +579,7 @@ def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geom
         Gamma=flat.Gamma, e=flat.e, t0=flat.t0, M=M, N=N, period=T, flat=flat,
         min_shift=False, scheme=scheme, time=elapsed, coupling=problem.coupling,
         tail_correction=bool(tail_correction),
-        spacing=float(x[1] - x[0]),
+        spacing=float(np.min(np.diff(x))), lattice=getattr(problem, "lattice", None),
         continuation_path=np.asarray(path if path is not None else [], dtype=float).reshape(-1, 3))
     if min_shift:
         # the paper's (64)-(65): shift zeta up where its minimum is negative -- a diagnostic, labelled
@@ -652,6 +689,9 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
     ((80,), (17, 80))
     """
     length, n_nodes = _grid(length, n_nodes, "length")
+    if symmetry == "kink" and check_int(M, "M", minimum=1) % 2:
+        raise ValueError(f"M must be even for a kink (got M = {M}): the half-period shift t0 + T/2 "
+                         "is a flat-layer phase only for even M")
     return _solve("planar", Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial,
                   lambda x, fl: np.full(x.size, fl.t0), tol, max_iter, scheme, paper_sign,
                   min_shift, callback, continuation, tail_correction,
@@ -692,6 +732,90 @@ def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=No
     r_core = check_real(r_core, "r_core")
     if not 0.0 <= r_core < r_max:
         raise ValueError(f"r_core must be in [0, r_max) = [0, {r_max}), got {r_core}")
+    if tc_initial is None and check_int(M, "M", minimum=1) % 2:
+        raise ValueError(f"tc_initial must be given for odd M (got M = {M}): the core phase t0 + T/2 "
+                         "is a flat-layer phase only for even M")
     return _solve("axisymmetric", Gamma, M, e, t0, n_harmonics, r_max, n_nodes, tc_initial,
                   lambda x, fl: np.where(x < r_core, fl.t0 + fl.period / 2, fl.t0), tol, max_iter,
                   scheme, paper_sign, min_shift, callback, continuation, tail_correction)
+
+
+def solve_lattice(lattice, Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
+                  r_core=1.0, tol=1e-10, max_iter=50, scheme="newton", paper_sign=1,
+                  min_shift=False, continuation=True, tail_correction=True, callback=None):
+    r"""The TPS on an FDA lattice: time-periodic orbits of the FDA's own discrete model.
+
+    Replaces the continuum Laplacian in (45) by the lattice operator of (52)-(53)
+    (:class:`~tps_solver.discrete_helmholtz.LatticeHelmholtz`).  A converged
+    solution is an exact periodic orbit of the lattice with one contact per node
+    and period, so :func:`~tps_solver.check_stability` can integrate it on the
+    same lattice with no discretisation mismatch (its defects measure only the
+    truncation in N).
+
+    Parameters
+    ----------
+    lattice : tps_solver.fda.Lattice
+        The FDA lattice (planar: the full line, Neumann or pinned ends;
+        axisymmetric: uniform or quasilog grid).
+    Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign, min_shift, continuation, tail_correction, callback
+        As in :func:`solve_kink`.
+    tc_initial : None, array_like of float (n_nodes,), or callable
+        ``None``: planar -- the kink step ``t0`` for ``x >= 0`` and ``t0 + T/2``
+        for ``x < 0``; axisymmetric -- ``t0 + T/2`` for ``r < r_core``, ``t0``
+        outside.  Both need an even ``M`` (only then is ``t0 + T/2`` a flat-layer
+        phase).
+    r_core : float, keyword-only
+        Core radius of the axisymmetric default guess.
+
+    Returns
+    -------
+    PeriodicSolution
+        With ``lattice`` set and ``nodes = lattice.nodes``.  Under continuation,
+        a branch that ends first is reported with ``status=4`` and the coupling
+        reached (the lattice operator scaled by ``coupling``).
+
+    Examples
+    --------
+    >>> from tps_solver.fda import Lattice
+    >>> lat = Lattice.planar(n_nodes=8, length=140.0)
+    >>> sol = solve_lattice(lat, Gamma=2.5, M=2, e=0.45, t0=None, n_harmonics=8)
+    >>> sol.converged, sol.nodes.shape
+    (True, (8,))
+    """
+    from .fda import Lattice
+
+    if not isinstance(lattice, Lattice):
+        raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
+    flat, N, tol, max_iter, scheme = _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter,
+                                                  scheme, paper_sign)
+    if not isinstance(continuation, bool):
+        raise ValueError(f"continuation must be True or False, got {continuation!r}")
+    r_core = check_real(r_core, "r_core")
+    x = np.asarray(lattice.nodes, dtype=float)
+    if tc_initial is None:
+        if flat.M % 2:
+            raise ValueError(f"tc_initial must be given for odd M (got M = {flat.M}): t0 + T/2 is a "
+                             "flat-layer phase only for even M")
+        if lattice.geometry == "planar":
+            default = np.where(x >= 0.0, flat.t0, flat.t0 + flat.period / 2)
+        else:
+            default = np.where(x < r_core, flat.t0 + flat.period / 2, flat.t0)
+    else:
+        default = None
+    tc = _initial_tc(tc_initial, x, default).astype(float)
+    start = time.perf_counter()
+    path = None
+    h = float(lattice.spacing)
+    nu_start = (h / _decoupled_spacing(flat.M)) ** 2
+    problem = _LatticeProblem(lattice, flat, N)
+    if scheme == "newton" and continuation and nu_start < 1.0:
+        out = _continuation(lambda nu: _LatticeProblem(lattice, flat, N, coupling=nu),
+                            tc, tol, max_iter, nu_start, callback)
+        *out, path, problem = out
+    elif scheme == "newton":
+        out = _newton(problem, tc, tol, max_iter, callback)
+    else:
+        out = _fixed_point(problem, tc, tol, max_iter, scheme, paper_sign)
+    elapsed = time.perf_counter() - start
+    return _finish(problem, flat, N, *out, scheme, lattice.geometry, min_shift, elapsed, path,
+                   bool(tail_correction))
