@@ -110,6 +110,14 @@ def test_speed_vs_error_numbers(speed_result, tmp_path):
             assert r["error"] <= 1e-10, r
         if r["method"] == "FDA ode" and r["problem"].startswith("flat"):
             assert r["error"] <= 1e3 * r["tol"], r
+    coarse = [r for r in speed_result["rows"] if r["problem"].startswith("coarse oscillon")]
+    assert [r["N"] for r in coarse] == list(speed_vs_error.FAST["coarse_Ns"])
+    for r in coarse:
+        assert r["converged"] and r["non_flat"], r
+    assert coarse[-1]["checks"]         # physical checks of the reference (largest N)
+    # refinement in N against the largest N: the error falls by more than 4x per doubling
+    assert coarse[1]["error"] < coarse[0]["error"] / 4
+    assert coarse[1]["tc_error"] < coarse[0]["tc_error"] / 4
     if speed_result["fda"]:
         for b in speed_result["brute"]:
             if b["periods"] is not None:

@@ -49,12 +49,14 @@ PERTURBATION = 0.05
 FAST = dict(Gamma=2.5, e=0.45, M=2, repeats=1,
             tps_flat=((8, 12), (16, 12)),
             tps_osc=(), osc_r_max=16.0,
+            coarse_Ns=(4, 8, 32), coarse_nodes=6, coarse_spacing=15.0,
             fda_flat_tols=(1e-8,), fda_flat_nodes=(5,),
             fda_kink_nodes=(), fda_kink_tols=(),
             brute_nodes=(5,), brute_targets=(1e-6,), brute_max_periods=40, length=8.0)
 FULL = dict(Gamma=2.5, e=0.45, M=2, repeats=5,
             tps_flat=((4, 24), (8, 24), (16, 24), (32, 24), (64, 24), (16, 48), (16, 96), (32, 96)),
             tps_osc=((8, 41), (16, 41), (16, 81), (32, 81), (32, 161)), osc_r_max=16.0,
+            coarse_Ns=(4, 8, 12, 16, 24, 32, 48, 96), coarse_nodes=6, coarse_spacing=15.0,
             fda_flat_tols=(1e-6, 1e-8, 1e-10, 1e-12), fda_flat_nodes=(5, 21),
             fda_kink_nodes=(11, 21, 41), fda_kink_tols=(1e-6, 1e-9, 1e-12),
             brute_nodes=(5, 21), brute_targets=(1e-4, 1e-6, 1e-9, 1e-12), brute_max_periods=80,
@@ -138,6 +140,48 @@ def tps_oscillon_rows(cfg, runs, repeats=5):
             common = z_ref[:, ::step]
             row["error"] = float(np.max(np.abs(sol.height(t) - common)))
             row["reference"] = f"finest run ({ref_row['setting']})"
+    return rows
+
+
+def tps_coarse_oscillon_rows(cfg, Ns, n_nodes=6, spacing=15.0, repeats=5):
+    """A converged non-flat TPS oscillon on a coarse grid, varying N; errors against the largest N.
+
+    The single-contact oscillon branch exists only for node spacings above
+    about 11 viscous lengths (``validation/sections/tps.md``); at ``spacing``
+    the continuation reaches full coupling and the core node bounces half a
+    period out of phase.  Error: max |zeta - zeta_ref| over a period and the
+    nodes, and max |tc - tc_ref|, against the run with the largest N.
+
+    Returns
+    -------
+    rows : list of dict
+    """
+    from tps_solver import solve_oscillon
+
+    rows, sols = [], []
+    for N in Ns:
+        def solve(N=N):
+            return solve_oscillon(Gamma=cfg["Gamma"], M=cfg["M"], e=cfg["e"], t0=None, n_harmonics=N,
+                                  n_nodes=n_nodes, r_max=spacing * (n_nodes - 1))
+
+        sec, sol = median_time(solve, repeats)
+        sols.append(sol)
+        rows.append(dict(method="TPS", problem=f"coarse oscillon ({n_nodes} nodes, spacing {spacing:g})",
+                         setting=f"N={N}", N=N, n_nodes=n_nodes, converged=bool(sol.converged), error=None,
+                         tc_error=None, reference=None, time=sec, repeats=repeats, nit=int(sol.nit),
+                         checks=bool(sol.checks.all_pass),
+                         non_flat=bool(np.max(np.abs(np.mod(sol.tc - sol.t0 + sol.period / 2, sol.period)
+                                                     - sol.period / 2)) > sol.period / 4)))
+    ref = sols[-1] if sols else None
+    if ref is not None and ref.converged:
+        t = np.linspace(0.0, ref.period, 512, endpoint=False)
+        z_ref = ref.height(t)
+        for sol, row in zip(sols[:-1], rows[:-1]):
+            if sol.converged:
+                row["error"] = float(np.max(np.abs(sol.height(t) - z_ref)))
+                row["tc_error"] = float(np.max(np.abs(np.mod(sol.tc - ref.tc + ref.period / 2, ref.period)
+                                                      - ref.period / 2)))
+                row["reference"] = f"N={ref.N}, same nodes"
     return rows
 
 
@@ -325,6 +369,7 @@ def speed_vs_error(config=None, **overrides):
     reps = cfg["repeats"]
     rows = tps_flat_rows(fl, cfg["tps_flat"], reps)
     rows += tps_oscillon_rows(cfg, cfg["tps_osc"], reps)
+    rows += tps_coarse_oscillon_rows(cfg, cfg["coarse_Ns"], cfg["coarse_nodes"], cfg["coarse_spacing"], reps)
     fda = optional_import("tps_solver.fda") is not None
     brute, tps_b, speed = [], [], []
     if fda:
@@ -378,6 +423,10 @@ def plot(result, path):
     return path
 
 
+def _num(value):
+    return "—" if value is None else f"{value:.2e}"
+
+
 ROW_COLUMNS = [("method", "method"), ("problem", "problem"), ("setting", "setting"), ("converged", "converged"),
                ("error", "error"), ("reference", "reference"), ("median time [s]", "time"),
                ("repeats", "repeats")]
@@ -423,6 +472,21 @@ def render(result, figure=None, command="python -m validation.speed_vs_error"):
         if not osc[-1]["converged"]:
             lines.append("- The finest run did not converge, so there is no converged non-flat reference and "
                          "no non-flat error or speed-up can be measured.")
+        lines.append("")
+    coarse = [r for r in result["rows"] if r["problem"].startswith("coarse oscillon")]
+    if coarse:
+        lines.append(f"Converged non-flat TPS solution: the oscillon on a coarse grid, {coarse[0]['problem']} "
+                     f"(the single-contact branch does not reach finer spacings, see the TPS section). "
+                     f"{sum(r['converged'] for r in coarse)}/{len(coarse)} runs converged, "
+                     f"{sum(r['non_flat'] for r in coarse)} of them with a core out of phase (|tc - t0| > T/4); "
+                     "error and tc error against the largest N:")
+        lines += [f"- {r['setting']}: zeta error {_num(r['error'])}, tc error {_num(r['tc_error'])}, "
+                  f"median time {r['time']:.3g} s, physical checks pass: {r['checks']}" for r in coarse[:-1]]
+        lines.append(f"- reference {coarse[-1]['setting']}: median time {coarse[-1]['time']:.3g} s, "
+                     f"physical checks pass: {coarse[-1]['checks']}")
+        lines.append("- No brute-force baseline for it: an FDA lattice with this spacing discretises the "
+                     "Laplacian differently (finite differences vs the TPS's exact Green's function), so its "
+                     "limit cycle is not the same solution.")
         lines.append("")
     if not result["fda"]:
         lines += ["The FDA (`tps_solver.fda`) does not exist yet: FDA rows and the brute-force baseline are "
