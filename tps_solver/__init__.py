@@ -10,6 +10,8 @@ Public API (see ``README.md`` for a tour):
 * :func:`solve_kink`, :func:`solve_oscillon`, :func:`solve_lattice`,
   :class:`PeriodicSolution`, :func:`load` -- the spectral time-periodic solver
   (TPS), eqs. (38)-(50), on the continuum or on an FDA lattice;
+* :func:`solve_lattice_cycle` -- exact single-contact periodic orbits of a
+  lattice (the TPS summed to all orders), the reference for TPS and FDA;
 * :class:`Lattice`, :func:`simulate` -- the event-driven FDA, eqs. (51)-(63);
 * :func:`check_stability` -- hands a limit cycle to the FDA.
 
@@ -27,6 +29,8 @@ _LAZY = {
     "solve_kink": "tps",
     "solve_oscillon": "tps",
     "solve_lattice": "tps",
+    "solve_lattice_cycle": "lattice_cycle",
+    "LatticeCycle": "lattice_cycle",
     "PeriodicSolution": "tps",
     "load": "tps",
     "Lattice": "fda",
