@@ -112,42 +112,41 @@ def test_derivative_bounds_hold_along_a_segment():
 
 
 # ---------------------------------------------------------- flat layers
-@pytest.mark.parametrize("name", list(LATTICES))
-def test_exact_reproduces_flat_layer_50_periods(name):
+def _flat_run(lat, method, periods=50):
+    """Run the stable flat layer from mid-flight; return it with its run, sampled once per period."""
     fl = stable_flat()
-    lat = LATTICES[name]()
     T = fl.period
     t0 = fl.t0 + 1.0
     w, z = flat_state(lat, fl, t0)
-    run = tps.simulate(lat, GAMMA, E, w, z, t_start=t0, t_end=t0 + 50 * T, method="exact",
-                       t_eval=t0 + T * np.arange(50) + 0.5)
+    run = tps.simulate(lat, GAMMA, E, w, z, t_start=t0, t_end=t0 + periods * T, method=method,
+                       t_eval=t0 + T * np.arange(periods) + 0.5)
     assert run.success
-    scale = max(1.0, fl.peak_height)
-    assert np.max(np.abs(run.zeta_eval - fl.height(run.t_eval)[:, None])) <= 1e-10 * scale
-    assert np.max(np.abs(run.w_eval - fl.velocity(run.t_eval)[:, None])) <= 1e-10 * scale
+    err = max(np.max(np.abs(run.zeta_eval - fl.height(run.t_eval)[:, None])),
+              np.max(np.abs(run.w_eval - fl.velocity(run.t_eval)[:, None])))
+    return fl, run, err
+
+
+@pytest.mark.parametrize("name", list(LATTICES))
+def test_exact_reproduces_flat_layer_50_periods(name):
+    lat = LATTICES[name]()
+    fl, run, err = _flat_run(lat, "exact")
+    assert err <= 1e-10 * max(1.0, fl.peak_height)
     # one simultaneous set (54) per period: every node at the same instant, to <= 1e-12
     times = np.unique(run.events.t)
     assert times.size == 50 and run.n_events == 50 * lat.n_nodes
-    np.testing.assert_allclose(times, fl.t0 + T * np.arange(1, 51), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(times, fl.t0 + fl.period * np.arange(1, 51), rtol=0, atol=1e-12)
     assert set(run.events.kind) == {"impact"}
     np.testing.assert_allclose(run.events.w_before, fl.impact_velocity, rtol=0, atol=1e-11)
 
 
 @pytest.mark.parametrize("name", ["planar-neumann", "planar-pinned", "radial-quasilog"])
 def test_ode_reproduces_flat_layer_50_periods(name):
-    fl = stable_flat()
     lat = {"planar-neumann": lambda: tps.Lattice.planar(n_nodes=6, length=8.0),
            "planar-pinned": lambda: tps.Lattice.planar(n_nodes=6, length=8.0, boundary="pinned"),
            "radial-quasilog": lambda: tps.Lattice.axisymmetric(n_nodes=8, r_max=20.0)}[name]()
-    T = fl.period
-    t0 = fl.t0 + 1.0
-    w, z = flat_state(lat, fl, t0)
-    run = tps.simulate(lat, GAMMA, E, w, z, t_start=t0, t_end=t0 + 50 * T, method="ode",
-                       t_eval=t0 + T * np.arange(50) + 0.5)
-    assert run.success
-    assert np.max(np.abs(run.zeta_eval - fl.height(run.t_eval)[:, None])) <= 1e-8
-    assert np.max(np.abs(run.w_eval - fl.velocity(run.t_eval)[:, None])) <= 1e-8
-    np.testing.assert_allclose(np.unique(run.events.t), fl.t0 + T * np.arange(1, 51), rtol=0, atol=1e-9)
+    fl, run, err = _flat_run(lat, "ode")
+    assert err <= 1e-8
+    np.testing.assert_allclose(np.unique(run.events.t), fl.t0 + fl.period * np.arange(1, 51), rtol=0, atol=1e-9)
 
 
 def _inelastic_cycle(Gamma):

@@ -12,7 +12,8 @@ What is measured
   ``perturbation`` is added to :math:`(\underline w, \underline\zeta)` and
   followed next to the reference run; the distance
   :math:`d_k = \max_i\max(|\Delta\zeta_i|, |\Delta w_i|)` at :math:`t_s + kT` is
-  fitted by :math:`d_k \propto \rho^k` over the second half of the run;
+  fitted by :math:`d_k \propto \rho^k` over the second half of the linear window
+  (the periods before :math:`d_k` first exceeds ``saturation``);
   :math:`\rho` is the growth factor per period (< 1: stable).
 * **multipliers** (hazard 7).  The period map is only piecewise smooth: where
   several nodes touch the plate (nearly) together, a perturbation changes the
@@ -61,6 +62,8 @@ class StabilityResult(Bunch):
         Measured per-period amplification of a small random perturbation.
     growth_history : ndarray of float, shape (periods + 1,)
         Distance between the perturbed and the reference run at each section time.
+    growth_window : tuple of int
+        First and last period of the fit.
     multipliers : ndarray of complex
         Period-map multipliers where the map is differentiable, by decreasing modulus.
     multipliers_kind : str
@@ -160,9 +163,29 @@ def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h):
     return Jp, Jm
 
 
+def _fit_growth(dist, saturation):
+    """Per-period growth factor from a log-linear fit on the linear window of ``dist``.
+
+    The window ends at the last period before ``dist`` first exceeds
+    ``saturation`` (the linear regime) and starts half-way into it (after the
+    transient); with fewer than two points there it starts at period 0.
+    """
+    over = np.flatnonzero(~(dist < saturation))
+    k1 = (int(over[0]) - 1) if over.size else dist.size - 1
+    if k1 < 1:
+        return float("nan"), (0, max(k1, 0))
+    k0 = max(1, k1 // 2) if k1 - max(1, k1 // 2) >= 1 else 0
+    ks = np.arange(k0, k1 + 1)
+    d = dist[ks]
+    if np.any(d <= 0):
+        return float("nan"), (k0, k1)
+    return float(math.exp(np.polyfit(ks, np.log(d), 1)[0])), (k0, k1)
+
+
 def check_stability(solution, periods=20, n_nodes=None, method="exact", *, length=8.0,
-                    boundary=None, perturbation=1e-7, seed=0, jacobian=False, jacobian_step=1e-7,
-                    jacobian_rtol=1e-3, defect_tol=1e-6, impact="point", rho_c=None, **simulate_kw):
+                    boundary=None, perturbation=1e-9, seed=0, jacobian=False, jacobian_step=1e-7,
+                    jacobian_rtol=1e-3, defect_tol=1e-6, saturation=1e-3, impact="point", rho_c=None,
+                    **simulate_kw):
     r"""Hand a limit cycle to the FDA and measure its stability (see the module docstring).
 
     Parameters
@@ -192,6 +215,9 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         Agreement required of the one-sided Jacobians for differentiability.
     defect_tol : float
         Largest final periodicity defect accepted for a stable verdict.
+    saturation : float
+        Distance beyond which the perturbation is no longer small; the growth
+        factor is fitted on the periods before it is reached.
     impact, rho_c
         Impact rule passed to :func:`simulate` (the cut-off in force).
     **simulate_kw
@@ -214,6 +240,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     jacobian_step = check_positive(jacobian_step, "jacobian_step")
     jacobian_rtol = check_positive(jacobian_rtol, "jacobian_rtol")
     defect_tol = check_positive(defect_tol, "defect_tol")
+    saturation = check_positive(saturation, "saturation")
     if boundary is not None:
         boundary = check_choice(boundary, "boundary", ("neumann", "pinned"))
     kw = dict(simulate_kw, impact=impact, rho_c=rho_c)
@@ -272,17 +299,10 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     k = min(pert.zeta_eval.shape[0], k_done)
     dist = np.maximum(np.max(np.abs(pert.zeta_eval[:k] - Z[:k]), axis=1),
                       np.max(np.abs(pert.w_eval[:k] - W[:k]), axis=1))
-    half = k // 2
-    sel = np.arange(half, k)
-    good = dist[sel] > 0
-    if np.count_nonzero(good) >= 2:
-        slope = np.polyfit(sel[good], np.log(dist[sel][good]), 1)[0]
-        growth = float(math.exp(slope))
-    else:
-        growth = float("nan")
-    if np.max(dist) > 1e-2:
-        notes.append(f"the perturbation grew to {np.max(dist):.3g}: nonlinear regime, the growth "
-                     "factor is a lower bound")
+    growth, window = _fit_growth(dist, saturation)
+    if window[1] < k - 1:
+        notes.append(f"the perturbation reached {np.max(dist):.3g} (> saturation {saturation:g}) after "
+                     f"{window[1] + 1} periods; growth fitted on periods {window[0]}..{window[1]} only")
 
     uniform = np.empty(0, complex)
     multipliers, kind, differentiable = np.empty(0, complex), "none", None
@@ -315,6 +335,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         msg += "; " + "; ".join(notes)
     return StabilityResult(
         defects=defects, initial_defect=initial_defect, growth_factor=growth, growth_history=dist,
+        growth_window=window,
         multipliers=multipliers, multipliers_kind=kind, uniform_multipliers=uniform,
         differentiable=differentiable, stable=stable, message=msg, events_per_period=events_per_period,
         sticking_nodes=sticking, cutoff=cutoff, lattice=lattice, method=method, period=T,

@@ -452,6 +452,12 @@ class ExactPropagator:
         g = math.sin(seg.t_c + tau) - 1.0 / self.Gamma
         return -(g + md.L_SF[j - nf] @ wF)
 
+    def _all_values(self, seg, md, tau):
+        """All candidate functions at local time tau (heights, then minus stuck accelerations)."""
+        wF, zF = seg.state(tau)
+        g = math.sin(seg.t_c + tau) - 1.0 / self.Gamma
+        return np.concatenate((zF, -(g + md.L_SF @ wF)))
+
     def _bracket(self, seg, md, f, fp, A, h, tau, nf):
         """Monotone brackets for the leading candidates; None if not all certified."""
         fpos = np.maximum(f, 0.0)
@@ -477,7 +483,7 @@ class ExactPropagator:
         tau_hi = tau + upper[lead]
         tau_c = self._root(seg, md, lead, tau, tau_hi)
         for _ in range(group.size):
-            vals = np.array([self._candidate_value(seg, md, j, tau_c) for j in group])
+            vals = self._all_values(seg, md, tau_c)[group]
             early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
             if not np.any(early):
                 break

@@ -163,7 +163,9 @@ class Lattice:
         length = check_positive(length, "length")
         boundary = check_choice(boundary, "boundary", _BOUNDARIES)
         nodes = center + length * (np.arange(n_nodes) / (n_nodes - 1) - 0.5)
-        return cls(nodes, "planar", boundary, grid="uniform")
+        lat = cls(nodes, "planar", boundary, grid="uniform")
+        lat.spacing = length / (n_nodes - 1)       # nominal spacing, free of node round-off
+        return lat
 
     @classmethod
     def axisymmetric(cls, n_nodes=200, r_max=20.0, grid="quasilog"):
