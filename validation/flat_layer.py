@@ -39,9 +39,10 @@ from validation.report import markdown_table, merged_config, optional_import, pu
 
 #: Fast configuration (tests, demo) and full configuration (``main``).
 FAST = dict(es=(0.45,), Ms=(1, 2), fractions=(0.5,), n_harmonics=16, n_nodes=24, size=8.0, tol=1e-12,
-            fda_nodes=5, fda_periods=4, stability_periods=10, tps_stability=False)
+            fda_nodes=5, fda_periods=4, stability_periods=10, tps_stability=())
 FULL = dict(es=(0.3, 0.45, 0.7), Ms=(1, 2), fractions=(0.25, 0.75), n_harmonics=30, n_nodes=60,
-            size=10.0, tol=1e-12, fda_nodes=9, fda_periods=10, stability_periods=20, tps_stability=True)
+            size=10.0, tol=1e-12, fda_nodes=9, fda_periods=10, stability_periods=20,
+            tps_stability=((0.45, 2),), tps_stability_periods=8)
 
 #: A perturbed-start TPS run whose tc ends farther than this from t0 found a different solution.
 RETURN_THRESHOLD = 1e-6
@@ -158,7 +159,7 @@ def tps_rows(fl, n_harmonics=16, n_nodes=24, size=8.0, stability=None, stability
                 W_err=float(np.max(np.abs(sol.velocity(t) - W[:, None]))),
                 zeta_err=float(np.max(np.abs(sol.height(t) - Z[:, None]))),
                 checks=bool(sol.checks.all_pass), time=elapsed, mu_err=None, tc_events_err=None)
-            if stability is not None and start == "t0":
+            if stability is not None and start == "t0" and solver == "TPS oscillon":
                 chk = stability.check_stability(sol, periods=stability_periods)
                 mu = stability_multipliers(chk)
                 row["mu_err"] = multiplier_error(mu_ref, mu) if mu.size else None
@@ -290,9 +291,10 @@ def flat_comparison(config=None, **overrides):
         mu = fl.floquet_multipliers()
         info.append(dict(_case(fl), mu=mu, mu_abs=float(np.max(np.abs(mu))), stable=fl.is_stable,
                          W0=fl.W0))
-        rows += tps_rows(fl, cfg["n_harmonics"], cfg["n_nodes"], cfg["size"],
-                         stability if cfg["tps_stability"] else None, cfg["stability_periods"],
-                         cfg["tol"])
+        wanted = any(abs(fl.e - e) < 1e-12 and fl.M == M for e, M in cfg["tps_stability"])
+        check_tps = stability if wanted else None
+        rows += tps_rows(fl, cfg["n_harmonics"], cfg["n_nodes"], cfg["size"], check_tps,
+                         cfg.get("tps_stability_periods", cfg["stability_periods"]), cfg["tol"])
         if fda is not None:
             rows += fda_rows(fl, cfg["fda_nodes"], cfg["fda_periods"], stability=stability,
                              stability_periods=cfg["stability_periods"])
@@ -340,7 +342,10 @@ def render(result, command="python -m validation.flat_layer"):
         "(best pairing). 'FD of simulate' = central differences (relative step 1e-5) of the FDA period "
         "map of the uniform mode at the section t0 + T/2. 'FDA growth': `check_stability` growth factor "
         "of a 1e-7 random perturbation on the lattice (for TPS rows: the TPS solution's own nodes; a value "
-        "> 1 on a flat solution is the grid-scale instability of DESIGN hazard 8, not a TPS error).",
+        "> 1 on a flat solution is the grid-scale instability of DESIGN hazard 8, not a TPS error; measured "
+        f"for the TPS oscillon started at t0 and (e, M) in {cfg['tps_stability']} only, over "
+        f"{cfg.get('tps_stability_periods', cfg['stability_periods'])} periods, because the check on a kink "
+        "lattice of the TPS nodes (120 nodes, pinned) did not finish one check in 4.5 minutes in a trial).",
         "",
         "### Cases",
         "",
