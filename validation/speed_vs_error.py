@@ -89,7 +89,7 @@ def tps_flat_rows(fl, runs, repeats=5, r_max=8.0):
         def solve(N=N, n=n):
             return solve_oscillon(Gamma=fl.Gamma, M=fl.M, t0=fl.t0, n_harmonics=N, n_nodes=n, r_max=r_max,
                                   tc_initial=lambda r: fl.t0 + PERTURBATION * np.cos(r),
-                                  continuation=False, tol=1e-12)
+                                  continuation=False, tol=1e-13)
 
         sec, sol = median_time(solve, repeats)
         rows.append(dict(method="TPS", problem="flat layer", setting=f"N={N}, {n} nodes", N=N, n_nodes=n,
@@ -318,7 +318,7 @@ def tps_reference_for_brute_force(fl, n_nodes, repeats=5, length=8.0):
     def solve():
         return solve_kink(Gamma=fl.Gamma, M=fl.M, t0=fl.t0, n_harmonics=16, n_nodes=m, length=length / 2,
                           symmetry="even", tc_initial=lambda x: fl.t0 + PERTURBATION * np.cos(x),
-                          continuation=False, tol=1e-12)
+                          continuation=False, tol=1e-13)
 
     sec, sol = median_time(solve, repeats)
     return dict(method="TPS", problem="perturbed flat layer -> cycle",

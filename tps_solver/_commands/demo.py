@@ -61,7 +61,7 @@ def _flat_by_tps(fl, N):
     from ..tps import solve_oscillon
 
     sol, dt = _timed(lambda: solve_oscillon(
-        Gamma=fl.Gamma, M=fl.M, t0=fl.t0, n_harmonics=N, n_nodes=24, r_max=8.0, tol=1e-12,
+        Gamma=fl.Gamma, M=fl.M, t0=fl.t0, n_harmonics=N, n_nodes=24, r_max=8.0, tol=1e-13,
         tc_initial=lambda r: fl.t0 + 0.05 * np.cos(r), continuation=False))
     T = fl.period
     tc_err = float(np.max(np.abs(np.mod(sol.tc - fl.t0 + T / 2, T) - T / 2)))
