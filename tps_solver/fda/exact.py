@@ -202,6 +202,7 @@ class Modes:
         self.forced = np.flatnonzero(np.abs(self.s) > 1e-15 * np.abs(self.s).max(initial=0.0))
         self.abs_lam = np.abs(lam)
         self.L_FF = L[np.ix_(idx, idx)]
+        self.absL_FF = np.abs(self.L_FF)
         stuck = np.flatnonzero(~free)
         self.stuck = stuck
         self.L_SF = L[np.ix_(stuck, idx)]
@@ -259,6 +260,13 @@ class Segment:
         """Height of free node number ``j`` (row of ``V``) at local time ``tau``."""
         _, cz = self.coefficients(tau)
         return self.zeta0[j] + self.modes.V[j] @ cz
+
+    def bounds12(self, tau):
+        """``(D_1, D_2)`` in one matrix product (see :meth:`derivative_bound`)."""
+        lam = self.modes.abs_lam
+        decay = np.exp(-lam * tau) * self._abs_a
+        D = self.modes.absV @ np.column_stack((lam * decay, lam * lam * decay))
+        return D[:, 0] + self._forcing[1], D[:, 1] + self._forcing[2]
 
     def derivative_bound(self, tau, m):
         r"""Bound :math:`D_{m}` on :math:`|w^{(m)}|` of every free node, valid for all later times."""
@@ -341,7 +349,8 @@ class ExactPropagator:
         F, S = md.index, md.stuck
         seg = Segment(md, t, w[F], zeta[F], Gamma)
         L_FF, L_SF, absL_SF = md.L_FF, md.L_SF, md.absL_SF
-        absL_FF = np.abs(L_FF)
+        absL_FF = md.absL_FF
+        has_stuck = S.size > 0
         t_eval = np.asarray(t_eval, dtype=float)
         samples = []
         nf = F.size
@@ -380,23 +389,23 @@ class ExactPropagator:
             g = math.sin(t_now) - 1.0 / Gamma
             dg = math.cos(t_now)
             accF = L_FF @ wF + g
-            A = seg.derivative_bound(tau, 1)
-            B = seg.derivative_bound(tau, 2)
+            A, B = seg.bounds12(tau)
             h_contact = _safe_step(zF, wF, A)
-            rising = wF >= -eps_w
-            if np.any(rising):
-                h_contact[rising] = np.maximum(h_contact[rising], _safe_step(
-                    np.maximum(wF[rising], 0.0), accF[rising], B[rising]))
-            h_contact = np.maximum(h_contact, release - tau)
-            # lift-off candidates: f = -a for stuck nodes
-            accS = g + L_SF @ wF
-            daccS = dg + L_SF @ accF
-            CS = 1.0 + absL_SF @ B
-            h_lift = _safe_step(-accS, -daccS, CS)
-            f = np.concatenate((zF, -accS))
-            fp = np.concatenate((wF, -daccS))
-            Abound = np.concatenate((A, CS))
-            h = np.concatenate((h_contact, h_lift))
+            # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
+            h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
+            h_contact = np.maximum(np.maximum(h_contact, h_rise), release - tau)
+            if has_stuck:
+                # lift-off candidates: f = -a for stuck nodes
+                accS = g + L_SF @ wF
+                daccS = dg + L_SF @ accF
+                CS = 1.0 + absL_SF @ B
+                h_lift = _safe_step(-accS, -daccS, CS)
+                f = np.concatenate((zF, -accS))
+                fp = np.concatenate((wF, -daccS))
+                Abound = np.concatenate((A, CS))
+                h = np.concatenate((h_contact, h_lift))
+            else:
+                f, fp, Abound, h = zF, wF, A, h_contact
             if h.size == 0:
                 hm = np.inf
             else:
