@@ -61,6 +61,7 @@ import scipy.integrate
 import scipy.linalg
 import scipy.optimize
 import scipy.sparse
+from scipy.optimize import brentq
 
 from .._validation import (check_array, check_choice, check_in_range, check_positive, check_real,
                            check_restitution)
@@ -444,16 +445,14 @@ class SoftFlatOrbit:
             vz = (F / (2.0 * G) - math.cos(t1) + (math.sin(t1 + F) - math.sin(t1)) / F) / ee
             return vw - vz
 
-        t1 = hard.t0
-        for _ in range(60):                      # Newton from the hard launch phase
-            h = 1e-7
-            d = (resid(t1 + h) - resid(t1 - h)) / (2.0 * h)
-            step = resid(t1) / d
-            t1 -= step
-            if abs(step) < 1e-15:
-                break
-        else:
-            raise RuntimeError("soft flat orbit: Newton iteration did not converge")
+        # the root of resid nearest the hard launch phase (the continued branch), bracketed on a scan
+        ts = hard.t0 + np.linspace(-0.5 * math.pi, 0.5 * math.pi, 2001)
+        r = np.array([resid(t) for t in ts])
+        idx = np.flatnonzero(np.sign(r[:-1]) * np.sign(r[1:]) <= 0.0)
+        if idx.size == 0:
+            raise ValueError(f"no soft flat orbit continued from the {branch} branch for cutoff = {cutoff!r}")
+        i = idx[np.argmin(np.abs(ts[idx] - hard.t0))]
+        t1 = brentq(resid, ts[i], ts[i + 1], xtol=1e-15, rtol=4 * np.finfo(float).eps)
         self.t_exit = float(t1)
         self.V = float((F / G - math.cos(t1) + math.cos(t1 + F)) / (1.0 + ee))
         if not self.V > 0.0:
