@@ -410,7 +410,7 @@ def _section_monodromy(orb, lam, t_s):
 
 def fast_soft(cutoff=0.3):
     """Fast subset: soft lattice growth under refinement at a fixed cut-off, with observed orders."""
-    rows = soft_lattice_growth(cutoff, nodes=(41, 81, 161, 321))
+    rows = soft_lattice_growth(cutoff, nodes=(81, 161, 321, 641))
     dx = [r["dx"] for r in rows]
     g = [r["growth"] for r in rows]
     return dict(rows=rows, orders=observed_orders(dx, g), orders_to_one=observed_orders(dx, g, limit=1.0))

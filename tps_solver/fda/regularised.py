@@ -499,14 +499,14 @@ class SoftFlatOrbit:
         t_out = t_in + tc
         g_in = math.sin(t_in) - 1.0 / G
         g_out = math.sin(t_out) - 1.0 / G
-        out = np.empty((lam.size, 2, 2))
         S_in = np.array([[1.0, (g_in - 2.0 * b * V) / V], [0.0, 1.0]])
         S_out = np.array([[1.0, (2.0 * b * e * V + g_out) / (e * V)], [0.0, 1.0]])
-        for k, lm in enumerate(lam):
-            ex = math.exp(-lm * F)
-            flight = np.array([[ex, 0.0], [F * float(_phi1(-lm * F)), 1.0]])
-            contact = scipy.linalg.expm(np.array([[-lm - 2.0 * b, -om2], [1.0, 0.0]]) * tc)
-            out[k] = S_out @ contact @ S_in @ flight
+        ex = np.exp(-lam * F)
+        flight = np.zeros((lam.size, 2, 2))
+        flight[:, 0, 0] = ex
+        flight[:, 1, 0] = F * _phi1(-lam * F)
+        flight[:, 1, 1] = 1.0
+        out = S_out @ _expm_companion(-lam - 2.0 * b, -om2, tc) @ S_in @ flight
         return out
 
     def growth(self, lam):
@@ -521,6 +521,37 @@ class SoftFlatOrbit:
         rho : ndarray of float, shape (k,)
         """
         return np.max(np.abs(np.linalg.eigvals(self.monodromy(lam))), axis=-1)
+
+
+def _expm_companion(a, c, t):
+    r"""Batched :math:`\exp(At)` for :math:`A = [[a, c], [1, 0]]`, ``a`` of shape (k,), in closed form.
+
+    With the eigenvalues :math:`r_{1,2} = m \pm q` (:math:`m = a/2`,
+    :math:`q = \sqrt{m^2 + c}`, complex if needed),
+    :math:`e^{At} = \alpha I + \gamma A` with
+    :math:`\gamma = (e^{r_1t} - e^{r_2t})/(r_1 - r_2)` and
+    :math:`\alpha = e^{r_2t} - r_2\gamma` (entry (0, 0) is :math:`e^{r_1t} + r_2\gamma`).  The larger root is formed as
+    :math:`m + \operatorname{sign}(m)q` and the smaller as :math:`-c/r_1`, so
+    nothing cancels for :math:`|a| \gg |c|`; :math:`|qt| < 10^{-4}` uses the series.
+    """
+    a = np.asarray(a, dtype=float)
+    m = 0.5 * a
+    q = np.sqrt((m * m + c).astype(complex))
+    sgn = np.where(m >= 0.0, 1.0, -1.0)
+    r1 = m + sgn * q
+    r1_safe = np.where(r1 == 0.0, 1.0, r1)
+    r2 = np.where(r1 == 0.0, m - sgn * q, -c / r1_safe)
+    e1, e2 = np.exp(r1 * t), np.exp(r2 * t)
+    small = np.abs(q * t) < 1e-4
+    d = np.where(small, 1.0, 2.0 * sgn * q)
+    gamma = np.where(small, t * np.exp(m * t) * (1.0 + (q * t) ** 2 / 6.0), (e1 - e2) / d)
+    alpha = np.where(small, np.exp(m * t) * (1.0 - m * t + (q * t) ** 2 * (0.5 - m * t / 6.0)), e2 - r2 * gamma)
+    out = np.empty(a.shape + (2, 2))
+    out[..., 0, 0] = np.where(small, alpha + gamma * a, e1 + r2 * gamma).real
+    out[..., 0, 1] = (gamma * c).real
+    out[..., 1, 0] = gamma.real
+    out[..., 1, 1] = alpha.real
+    return out
 
 
 def _phi1(z):
