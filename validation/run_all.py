@@ -23,8 +23,8 @@ if _ROOT not in sys.path:
 from validation.report import REPORT_PATH, build_report, optional_import  # noqa: E402
 
 #: Validation modules, in the order they run.
-MODULES = ("flat_layer_analytics", "linear_stability", "flat_layer", "kink", "oscillon", "cutoff",
-           "fda_benchmark", "speed_vs_error", "figures")
+MODULES = ("flat_layer_analytics", "linear_stability", "tps_branches", "flat_layer", "kink", "oscillon",
+           "cutoff", "fda_benchmark", "speed_vs_error", "figures")
 
 
 def run_modules(names=MODULES, stream=None):

@@ -399,8 +399,8 @@ def plot(result, path):
     markers = "osD^v<>ph*x+"
     for i, (label, rs) in enumerate(sorted(groups.items())):
         rs = sorted(rs, key=lambda r: r["time"])
-        ax.loglog([r["time"] for r in rs], [max(r["error"], 1e-17) for r in rs], markers[i % len(markers)] + "-",
-                  label=label, alpha=0.8)
+        ax.loglog([r["time"] for r in rs], [max(r["error"], 1e-17) for r in rs], markers[i % len(markers)],
+                  ls="none", label=label, alpha=0.8)
     # Pareto front over all points
     pts = sorted((r["time"], max(r["error"], 1e-17)) for rs in groups.values() for r in rs)
     front, best = [], math.inf
@@ -515,8 +515,10 @@ def render(result, figure=None, command="python -m validation.speed_vs_error"):
                          "grid scale, DESIGN hazard 8), or the TPS error exceeded the target.")
         lines.append("")
         lines.append("Caveat: on the flat layer the TPS is exact at every N (its error is round-off), so the "
-                     "speed-up measures the cost of a Newton solve against many periods of time stepping; "
-                     "a non-flat comparison needs a converged non-flat TPS solution.")
+                     "speed-up measures the cost of a Newton solve against many periods of time stepping on "
+                     "a lattice coarse enough for the flat cycle to be stable. A non-flat comparison needs a "
+                     "non-flat TPS solution that the FDA can also reach; the only converged non-flat TPS "
+                     "solutions measured here live on grids too coarse for an FDA counterpart (above).")
         lines.append("")
     if figure:
         lines += [f"![speed against error]({os.path.relpath(figure, os.path.dirname(FIGURES_DIR))})", ""]
