@@ -42,33 +42,55 @@ from .flat import FlatLayer
 __all__ = ["LatticeCycle", "solve_lattice_cycle"]
 
 
+def _phi1(z):
+    """expm1(z)/z, = 1 at z = 0."""
+    z = np.asarray(z, dtype=float)
+    safe = np.where(z == 0.0, 1.0, z)
+    return np.where(np.abs(z) < 1e-12, 1.0 + 0.5 * z, np.expm1(safe) / safe)
+
+
+def _taylor_tail(z, order):
+    """(e^z - sum_{k<order} z^k/k!) / z^order, cancellation-free: series for |z| < 1."""
+    z = np.asarray(z, dtype=float)
+    small = np.abs(z) < 1.0
+    zs = np.where(small, z, 0.0)
+    # Horner on sum_{k>=0} z^k / (k + order)!, 24 terms (error < 1/24! for |z| < 1)
+    acc = np.zeros_like(zs)
+    for k in range(24, -1, -1):
+        acc = acc * zs + 1.0 / math.factorial(k + order)
+    zb = np.where(small, 1.0, z)
+    direct = np.expm1(zb)
+    for k in range(1, order):
+        direct = direct - zb ** k / math.factorial(k)
+    return np.where(small, acc, direct / zb ** order)
+
+
 def _H(lam, tau, T):
-    """H(lambda, tau) for tau in [0, T) (mean of the jump at tau = 0); lam <= 0, shape broadcast."""
-    lam = np.asarray(lam, dtype=float)
-    tau = np.asarray(tau, dtype=float)
-    zero = np.abs(lam) * T < 1e-9
-    lt = np.where(zero, -1.0, lam)
-    em = np.expm1(lt * T)                           # e^{lam T} - 1 < 0
-    val = -np.exp(lt * tau) / em + 1.0 / (lt * T)
-    at0 = tau == 0.0
-    val = np.where(at0, -(np.exp(lt * T) + 1.0) / (2.0 * em) + 1.0 / (lt * T), val)
-    saw = np.where(at0, 0.0, 0.5 - tau / T)
-    return np.where(zero, saw, val)
+    """H(lambda, tau) for tau in [0, T) (mean of the jump at tau = 0); lam <= 0, shape broadcast.
+
+    With mu = lambda T and x = tau/T:  H = [f2(mu) - x phi1(mu x)] / phi1(mu), where
+    phi1(z) = (e^z - 1)/z and f2(z) = (e^z - 1 - z)/z^2 -- free of the 1/mu cancellation of
+    the textbook form and equal to 1/2 - x at mu = 0.  At x = 0 the mean of the jump,
+    f2/phi1 - 1/2, is returned.
+    """
+    lam, tau = np.broadcast_arrays(np.asarray(lam, dtype=float), np.asarray(tau, dtype=float))
+    mu = lam * T
+    x = tau / T
+    p1 = _phi1(mu)
+    f2 = _taylor_tail(mu, 2)
+    val = (f2 - x * _phi1(mu * x)) / p1
+    return np.where(tau == 0.0, f2 / p1 - 0.5, val)
 
 
 def _H_int(lam, tau, T):
-    """Zero-mean antiderivative of H in tau (continuous, T-periodic)."""
-    lam = np.asarray(lam, dtype=float)
-    tau = np.asarray(tau, dtype=float)
-    zero = np.abs(lam) * T < 1e-9
-    lt = np.where(zero, -1.0, lam)
-    em = np.expm1(lt * T)
-    # int H = -e^{l tau}/(l em) + tau/(l T) + C; zero mean: mean of first two terms is
-    # -1/(l^2 T) + T/(2 l T) -> C = 1/(l^2 T) - 1/(2 l)
-    val = -np.exp(lt * tau) / (lt * em) + tau / (lt * T) + 1.0 / (lt * lt * T) - 0.5 / lt
+    """Zero-mean antiderivative of H in tau (continuous, T-periodic):
+    T [f2(mu) x - x^2 f2(mu x) - (f2(mu)/2 - f3(mu))] / phi1(mu)."""
+    lam, tau = np.broadcast_arrays(np.asarray(lam, dtype=float), np.asarray(tau, dtype=float))
+    mu = lam * T
     x = tau / T
-    z = T * (x / 2 - x * x / 2 - 1.0 / 12.0)         # int of (1/2 - tau/T), zero mean
-    return np.where(zero, z, val)
+    f2 = _taylor_tail(mu, 2)
+    f3 = _taylor_tail(mu, 3)
+    return T * (f2 * x - x * x * _taylor_tail(mu * x, 2) - (0.5 * f2 - f3)) / _phi1(mu)
 
 
 class LatticeCycle(Bunch):
@@ -86,6 +108,8 @@ class LatticeCycle(Bunch):
     residual_history : ndarray of float
     tc : ndarray of float, shape (n_nodes,)
     nodes : ndarray of float, shape (n_nodes,)
+    geometry : str
+        The lattice's geometry ("planar" or "axisymmetric").
     coupling : float
         Coupling reached (1: the lattice as given).
     lattice, flat, Gamma, e, M, t0, period
@@ -238,6 +262,7 @@ def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None
     cyc = LatticeCycle(
         converged=status == 0, success=status == 0, status=status, message=message, nit=nit,
         residual=history[-1], residual_history=np.asarray(history), tc=tc, nodes=x.copy(),
+        geometry=lattice.geometry,
         coupling=problem.coupling, lattice=lattice, flat=flat, Gamma=Gamma, e=flat.e, M=M,
         t0=flat.t0, period=flat.period, J=problem.J, time=time.perf_counter() - start,
         continuation_path=np.asarray(path, dtype=float).reshape(-1, 3))

@@ -193,6 +193,9 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     solution : FlatLayer or PeriodicSolution
         A flat layer, or a TPS solution (duck-typed: ``geometry``, ``nodes``,
         ``Gamma``, ``e``, ``period``, ``flat``, ``velocity(t)``, ``height(t)``).
+        A solution carrying its own ``lattice`` (from
+        :func:`~tps_solver.solve_lattice` or :func:`~tps_solver.solve_lattice_cycle`)
+        is checked on that lattice unless ``n_nodes`` or another ``boundary`` is given.
     periods : int
         Number of periods integrated, >= 2.
     n_nodes : int, optional
@@ -261,7 +264,11 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         sol = solution
         if n_nodes is not None:
             n_nodes = check_int(n_nodes, "n_nodes", minimum=3)
-        lattice = _lattice_for_solution(sol, n_nodes, boundary or "pinned")
+        own = getattr(sol, "lattice", None)
+        if own is not None and n_nodes is None and boundary in (None, own.boundary):
+            lattice = own              # a TPS orbit of this very lattice: no discretisation mismatch
+        else:
+            lattice = _lattice_for_solution(sol, n_nodes, boundary or "pinned")
         Gamma, e, T = float(sol.Gamma), float(sol.e), float(sol.period)
         t_s = _section_time(sol, T)
         w0, z0 = _sample_solution(sol, lattice, t_s)
