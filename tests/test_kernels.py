@@ -3,7 +3,8 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from tps_solver.kernels import exp_moments, helmholtz_beta, radial_moment_i, radial_moment_k
+from tps_solver.kernels import (exp_moments, helmholtz_beta, radial_half_cell_moments,
+                                radial_moment_i, radial_moment_k)
 
 DPS = 40
 RTOL = 1e-12
@@ -57,9 +58,25 @@ def test_radial_moments_against_mpmath_closed_form(seed):
         assert _rel_err(mk[j], _ref_moment_k(bt, aa, bb)) <= RTOL, (bt, aa, bb)
 
 
+def test_half_cell_moments_against_mpmath():
+    """Solver weights: both halves of random cells, rescaled as documented, vs mpmath."""
+    cases = _random_cases(3, 40)
+    beta, a, b = (np.array(v) for v in zip(*cases))
+    il, ir, kl, kr = radial_half_cell_moments(beta, a, b)
+    with mp.workdps(DPS):
+        for j, (bt, aa, bb) in enumerate(cases):
+            B, m = _mpc(bt), 0.5 * (aa + bb)
+            shift_i = complex(mp.exp(-B.real * (mp.mpf(bb) - mp.mpf(m))))
+            shift_k = complex(mp.exp(-B * (mp.mpf(m) - mp.mpf(aa))))
+            assert _rel_err(il[j], _ref_moment_i(bt, aa, m) * shift_i) <= RTOL, (bt, aa, bb)
+            assert _rel_err(ir[j], _ref_moment_i(bt, m, bb)) <= RTOL, (bt, aa, bb)
+            assert _rel_err(kl[j], _ref_moment_k(bt, aa, m)) <= RTOL, (bt, aa, bb)
+            assert _rel_err(kr[j], _ref_moment_k(bt, m, bb) * shift_k) <= RTOL, (bt, aa, bb)
+
+
 @pytest.mark.parametrize("beta, a, b", [
-    (0.05 * np.exp(0.25j * np.pi), 150.0, 150.01),      # tiny |beta| h, far out: Gauss branch
-    (12.0 * np.exp(0.25j * np.pi), 199.0, 199.1),       # large |beta|, far out
+    (0.05 * np.exp(0.25j * np.pi), 150.0, 150.01),      # tiny |beta| h, far out: Taylor branch
+    (12.0 * np.exp(0.25j * np.pi), 199.0, 199.1),       # large |beta|, far out: Taylor branch
     (3.0 * np.exp(0.25j * np.pi), 0.0, 1e-3),           # at the origin, series branch
     (3.0 * np.exp(0.25j * np.pi), 2e-3, 5e-3),          # near the origin, series branch
     (2.0 * np.exp(0.25j * np.pi), 60.0, 63.0),          # closed-form branch
@@ -127,6 +144,7 @@ def test_no_floating_point_warnings_n256_length200():
     with np.errstate(over="raise", invalid="raise", divide="raise"):
         mi = radial_moment_i(beta, a, b)
         mk = radial_moment_k(beta, a, b)
+        halves = radial_half_cell_moments(beta, a, b)
         phi0, phi1 = exp_moments(beta * 200.0)
-    for arr in (mi, mk, phi0, phi1):
+    for arr in (mi, mk, phi0, phi1) + halves:
         assert np.all(np.isfinite(arr))

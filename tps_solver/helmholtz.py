@@ -57,7 +57,7 @@ import numpy as np
 from scipy.special import ive, kve
 
 from ._validation import check_array, check_choice, check_int
-from .kernels import exp_moments, helmholtz_beta, radial_moment_i, radial_moment_k
+from .kernels import exp_moments, helmholtz_beta, radial_half_cell_moments
 
 __all__ = ["HelmholtzSolver"]
 
@@ -166,16 +166,14 @@ class HelmholtzSolver:
     def _setup_axisymmetric(self):
         r, beta = self.nodes, self.beta
         a, b = r[:-1, None], r[1:, None]             # (n-1, 1)
-        m = 0.5 * (a + b)
         bt = beta[None, :]
+        i_left, i_right, k_left, k_right = radial_half_cell_moments(bt, a, b)
         # left sweep: Lt_j = e^{-Re(beta) r_j} int_0^{r_j} I0(beta s) p s ds
         self._decay_left = np.exp(-bt.real * (b - a)) * np.ones_like(bt)
-        self._wl = (radial_moment_i(bt, a, m) * np.exp(-bt.real * (b - m)),
-                    radial_moment_i(bt, m, b))
+        self._wl = (i_left, i_right)
         # right sweep: Rt_j = e^{beta r_j} int_{r_j}^inf K0(beta s) p s ds
         self._decay_right = np.exp(-bt * (b - a))
-        self._wr = (radial_moment_k(bt, a, m),
-                    radial_moment_k(bt, m, b) * np.exp(-bt * (m - a)))
+        self._wr = (k_left, k_right)
         z = bt * r[:, None]                          # (n, N)
         phase = np.exp(-1j * z.imag)
         kfac = np.zeros_like(z)
