@@ -24,7 +24,7 @@ from validation.report import REPORT_PATH, build_report, optional_import  # noqa
 
 #: Validation modules, in the order they run.
 MODULES = ("flat_layer_analytics", "linear_stability", "tps_branches", "flat_layer", "kink", "oscillon",
-           "cutoff", "fda_benchmark", "speed_vs_error", "figures")
+           "cutoff", "fda_benchmark", "lattice_tps", "speed_vs_error", "figures")
 
 
 def run_modules(names=MODULES, stream=None):
