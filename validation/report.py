@@ -39,6 +39,7 @@ SECTION_ORDER = (
     ("kink", "Kinks"),
     ("oscillon", "Oscillons"),
     ("fda", "Event-driven FDA, eqs. (51)-(63)"),
+    ("fda_benchmark", "FDA benchmark (validation/fda_benchmark.py)"),
     ("lattice", "TPS and FDA on the same lattice"),
     ("cutoff", "Cut-off length (DESIGN hazard 8)"),
     ("speed", "Speed against error"),
