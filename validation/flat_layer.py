@@ -399,7 +399,8 @@ def render(result, command="python -m validation.flat_layer"):
                 if not sub:
                     continue
                 lines.append(
-                    f"- FDA {m}, {branch} branch ({len(sub)} cases): max errors tc {max(r['tc_err'] for r in sub):.2e}, "
+                    f"- FDA {m}, {branch} branch ({len(sub)} cases): max errors "
+                    f"tc {max(r['tc_err'] for r in sub):.2e}, "
                     f"W {max(r['W_err'] for r in sub):.2e}, zeta {max(r['zeta_err'] for r in sub):.2e}, "
                     f"mu (FD of simulate) {max(r['mu_fd_err'] for r in sub):.2e}"
                     + (f", mu (check_stability) {max(r['mu_err'] for r in sub):.2e}" if result["stability"] else "")

@@ -31,7 +31,6 @@ write ``validation/sections/speed.md`` and the Pareto plot
 import math
 import os
 import sys
-import time
 
 import numpy as np
 
@@ -322,7 +321,8 @@ def tps_reference_for_brute_force(fl, n_nodes, repeats=5, length=8.0):
 
     sec, sol = median_time(solve, repeats)
     return dict(method="TPS", problem="perturbed flat layer -> cycle",
-                setting=f"N=16, {2 * m} nodes (planar, even)", n_nodes=2 * m, fda_nodes=n_nodes, converged=bool(sol.converged),
+                setting=f"N=16, {2 * m} nodes (planar, even)", n_nodes=2 * m, fda_nodes=n_nodes,
+                converged=bool(sol.converged),
                 error=_cycle_error(fl, sol.height(t), t), reference="closed form (17)-(19)", time=sec,
                 repeats=repeats)
 

@@ -72,7 +72,8 @@ def _flat_by_tps(fl, N):
 
 def _physics(sol):
     c = sol.checks
-    return (("(of the returned fields) " if not sol.converged else "") + f"min zeta {c.min_zeta:.2e}, single contact {c.single_contact}, "
+    return (("(of the returned fields) " if not sol.converged else "")
+            + f"min zeta {c.min_zeta:.2e}, single contact {c.single_contact}, "
             f"steep crossing {bool(np.all(c.tc_is_steep_crossing))}, "
             f"restitution residual {c.restitution_residual:.1e}")
 
