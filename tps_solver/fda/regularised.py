@@ -479,35 +479,37 @@ class SoftFlatOrbit:
         z = (v + math.cos(t1)) * tau + math.sin(t1) - math.sin(t) - tau * tau / (2.0 * G)
         return w, z
 
-    def monodromy(self, lam):
-        r"""Linearised period map of the mode with :math:`-\underline L`-eigenvalue ``lam``, from exit to exit.
+    def monodromy(self, lam, t_section=None):
+        r"""Linearised period map of the mode with :math:`-\underline L`-eigenvalue ``lam``.
 
         Parameters
         ----------
         lam : float or array_like of float, shape (k,)
             Eigenvalues :math:`\lambda \ge 0` (:math:`k^2` for a Fourier mode).
+        t_section : float, optional
+            Flight time at which the map starts and ends; default the exit time
+            ``t_exit``.
 
         Returns
         -------
         M : ndarray of float, shape (k, 2, 2)
-            Acting on :math:`(\delta w, \delta\zeta)`.
+            Acting on :math:`(\delta w, \delta\zeta)`: flight to the entry, entry
+            saltation, contact, exit saltation, flight to the section.
         """
         lam = np.atleast_1d(np.asarray(lam, dtype=float))
         G, e, V = self.Gamma, self.e, self.V
         F, tc, om2, b = self.flight, self.tau_c, self.omega0_sq, self.beta
+        a = 0.0 if t_section is None else (check_real(t_section, "t_section") - self.t_exit) % self.period
+        if a > F:
+            raise ValueError(f"t_section must be a flight time of the soft flat orbit, got {t_section!r}")
         t_in = self.t_exit + F
         t_out = t_in + tc
         g_in = math.sin(t_in) - 1.0 / G
         g_out = math.sin(t_out) - 1.0 / G
         S_in = np.array([[1.0, (g_in - 2.0 * b * V) / V], [0.0, 1.0]])
         S_out = np.array([[1.0, (2.0 * b * e * V + g_out) / (e * V)], [0.0, 1.0]])
-        ex = np.exp(-lam * F)
-        flight = np.zeros((lam.size, 2, 2))
-        flight[:, 0, 0] = ex
-        flight[:, 1, 0] = F * _phi1(-lam * F)
-        flight[:, 1, 1] = 1.0
-        out = S_out @ _expm_companion(-lam - 2.0 * b, -om2, tc) @ S_in @ flight
-        return out
+        return (_flight_map(lam, a) @ S_out @ _expm_companion(-lam - 2.0 * b, -om2, tc) @ S_in
+                @ _flight_map(lam, F - a))
 
     def growth(self, lam):
         """Spectral radius of :meth:`monodromy` per mode: the growth factor per period.
@@ -551,6 +553,15 @@ def _expm_companion(a, c, t):
     out[..., 0, 1] = (gamma * c).real
     out[..., 1, 0] = gamma.real
     out[..., 1, 1] = alpha.real
+    return out
+
+
+def _flight_map(lam, tau):
+    """Batched flight propagator of (dw, dzeta) for a mode: dw' = -lam dw, dzeta' = dw, over ``tau``."""
+    out = np.zeros((lam.size, 2, 2))
+    out[:, 0, 0] = np.exp(-lam * tau)
+    out[:, 1, 0] = tau * _phi1(-lam * tau)
+    out[:, 1, 1] = 1.0
     return out
 
 
