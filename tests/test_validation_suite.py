@@ -238,3 +238,18 @@ def test_full_flat_comparison():
                 assert r["mu_err"] <= MU_TOL, r
             if r["branch"] == "stable":
                 assert max(r["W_err"], r["zeta_err"]) <= FDA_TOL[r["solver"]], r
+
+
+def test_run_modules_survives_a_failing_main(tmp_path, monkeypatch):
+    pkg = tmp_path / "validation_fake"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "boom.py").write_text("def main():\n    raise RuntimeError('measured failure')\n")
+    (pkg / "quits.py").write_text("import sys\n\ndef main():\n    sys.exit(3)\n")
+    (pkg / "fine.py").write_text("def main():\n    print('fine ran')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(run_all, "optional_import",
+                        lambda name: report.optional_import(name.replace("validation.", "validation_fake.")))
+    log = run_all.run_modules(["boom", "quits", "fine", "absent"])
+    assert [e["status"] for e in log] == ["failed", "failed", "ok", "missing"]
+    assert "measured failure" in log[0]["error"] and "3" in log[1]["error"]

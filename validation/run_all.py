@@ -56,6 +56,10 @@ def run_modules(names=MODULES, stream=None):
             else:
                 print(f"\n=== validation.{name} ===", file=stream, flush=True)
                 mod.main()
+        except SystemExit as exc:  # a main that calls sys.exit: only a non-zero code is a failure
+            if exc.code not in (None, 0):
+                entry["status"] = "failed"
+                entry["error"] = f"SystemExit({exc.code!r})"
         except Exception as exc:  # report and continue with the other modules
             entry["status"] = "failed"
             entry["error"] = f"{type(exc).__name__}: {exc}"
