@@ -316,3 +316,17 @@ def test_bad_solve_input(geometry, q, q_inf, parity, name):
     solver = HelmholtzSolver(_X, geometry, 2, 3)
     with pytest.raises(ValueError, match=name):
         solver.solve(q, q_inf, parity=parity)
+
+
+@pytest.mark.parametrize("geometry", ["planar", "axisymmetric"])
+def test_rows_independent_of_N(geometry):
+    """Harmonic n does not depend on N; N = 64 runs the plain sweep loop, N = 5 the chunked
+    schedule, so this compares the two recursion schedules."""
+    rng = np.random.default_rng(8)
+    x = _random_nodes(rng, 120, 40.0)
+    q, q_inf = _random_rhs(rng, 64, x.size)
+    par = np.where(np.arange(64) % 2 == 0, -1, 1) if geometry == "planar" else None
+    u_big = HelmholtzSolver(x, geometry, 2, 64).solve(q, q_inf, parity=par)
+    u_small = HelmholtzSolver(x, geometry, 2, 5).solve(
+        q[:5], q_inf[:5], parity=None if par is None else par[:5])
+    assert np.max(np.abs(u_big[:5] - u_small)) <= 64 * EPS * np.max(np.abs(u_small))

@@ -67,8 +67,9 @@ def helmholtz_beta(N, M):
 
     Examples
     --------
-    >>> helmholtz_beta(2, 2)
-    array([0.5+0.5j, 0.70710678+0.70710678j])
+    >>> beta = helmholtz_beta(2, 2)
+    >>> bool(np.allclose(beta, [0.5 + 0.5j, np.sqrt(0.5) * (1 + 1j)]))
+    True
     """
     n = np.arange(1, N + 1)
     return np.sqrt(1j * n / M)
