@@ -219,6 +219,12 @@ def make_figures(config=None, directory=FIGURES_DIR, **overrides):
         One per paper figure: ``figure``, ``what``, ``made`` (bool), ``paths``,
         ``solver`` (what produced it), ``reason`` (why it was not made, or a
         caveat), and for FDA figures ``defect``, ``run_status``, ``n_events``.
+
+    Examples
+    --------
+    >>> entries = make_figures(FAST, directory="/tmp/figs")       # doctest: +SKIP
+    >>> [(e["figure"], e["made"]) for e in entries][:2]           # doctest: +SKIP
+    [('Fig. 2', True), ('Fig. 3', False)]
     """
     cfg = merged_config(FAST, config, overrides)
     os.makedirs(directory, exist_ok=True)

@@ -56,7 +56,13 @@ def optional(module):
 
 
 def periodic_distance(a, b, period):
-    """Elementwise distance of ``a`` and ``b`` on the circle of circumference ``period``."""
+    """Elementwise distance of ``a`` and ``b`` on the circle of circumference ``period``.
+
+    Examples
+    --------
+    >>> periodic_distance([0.1, 9.9], 0.0, 10.0)
+    array([0.1, 0.1])
+    """
     d = np.mod(np.asarray(a, dtype=float) - np.asarray(b, dtype=float) + period / 2, period)
     return np.abs(d - period / 2)
 
@@ -71,6 +77,11 @@ def multiplier_error(reference, measured):
     Returns
     -------
     err : float
+
+    Examples
+    --------
+    >>> multiplier_error([0.5, 0.2], [0.2, 0.5 + 1e-3])
+    0.0010000000000000009
     """
     import itertools
 

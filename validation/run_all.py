@@ -41,6 +41,12 @@ def run_modules(names=MODULES, stream=None):
     log : list of dict
         Per module: ``name``, ``status`` (``"ok"``, ``"missing"``, ``"no main"``,
         ``"failed"``), ``seconds``, ``error`` (the exception text, if failed).
+
+    Examples
+    --------
+    >>> run_modules(["no_such_module"])[0]["status"]            # doctest: +ELLIPSIS
+    --- validation.no_such_module: skipped: module does not exist yet (... s)
+    'missing'
     """
     stream = stream or sys.stdout
     log = []

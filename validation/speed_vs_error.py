@@ -363,6 +363,12 @@ def speed_vs_error(config=None, **overrides):
         ``brute`` (brute-force rows), ``tps_brute`` (the TPS runs they are
         compared with), ``speedup`` (rows of :func:`speedups`), ``fda``
         (whether the FDA exists), ``config``.
+
+    Examples
+    --------
+    >>> res = speed_vs_error(FAST)                                  # doctest: +SKIP
+    >>> [r["setting"] for r in res["rows"] if r["method"] == "TPS"][:2]  # doctest: +SKIP
+    ['N=8, 12 nodes', 'N=16, 12 nodes']
     """
     cfg = merged_config(FAST, config, overrides)
     fl = _flat(cfg)
