@@ -292,10 +292,10 @@ def observed_orders(dx, values, limit=None):
 
 
 def soft_lattice_growth(cutoff, geometry="planar", nodes=(21, 41, 81, 161, 321, 641), extent=8.0, **params):
-    """Growth factor of the soft-contact lattice from its per-mode monodromy, under refinement.
+    r"""Growth factor of the soft-contact lattice from its per-mode monodromy, under refinement.
 
     The linearised period map at the (uniform) soft flat orbit decouples over the
-    eigenvectors of :math:`-\\underline L`; the growth factor of zero-mean
+    eigenvectors of :math:`-\underline L`; the growth factor of zero-mean
     perturbations is the largest spectral radius over the non-uniform modes.
 
     Returns
