@@ -149,13 +149,20 @@ def _taylor_moments(beta, c, half, y0, y1, pieces):
     rho = half / c
     bh2 = (beta * half) ** 2
     b_prev, b_cur, b_next = np.zeros_like(y0), y0, y1 * half
+    size = np.abs(y0) + np.abs(b_next)
     sums = [np.zeros_like(y0) for _ in pieces]
+    # running powers lo^(m+1), up^(m+1) of each piece
+    powers = [[np.asarray(lo, dtype=float), np.asarray(up, dtype=float)] for lo, up in pieces]
     for m in range(_TAYLOR_TERMS):
-        for acc, (lo, up) in zip(sums, pieces):
-            acc += b_cur * (c * (up ** (m + 1) - lo ** (m + 1)) / (m + 1)
-                            + half * (up ** (m + 2) - lo ** (m + 2)) / (m + 2))
+        for acc, (lo, up), pw in zip(sums, pieces, powers):
+            d1 = pw[1] - pw[0]                        # up^(m+1) - lo^(m+1)
+            pw[0] = pw[0] * lo
+            pw[1] = pw[1] * up
+            acc += b_cur * (c * d1 / (m + 1) + half * (pw[1] - pw[0]) / (m + 2))
         b_new = (bh2 * (b_cur + rho * b_prev) - (m + 1) ** 2 * rho * b_next) / ((m + 1) * (m + 2))
         b_prev, b_cur, b_next = b_cur, b_next, b_new
+        if m % 4 == 3 and np.all(np.abs(b_cur) + np.abs(b_next) <= 1e-18 * size):
+            break                                     # remaining terms below 1e-18 relative
     return [half * acc for acc in sums]
 
 
