@@ -269,6 +269,13 @@ class HelmholtzSolver:
         Returns
         -------
         u_inf : ndarray of complex, shape (N,)
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> solver = HelmholtzSolver(np.linspace(0.0, 5.0, 6), "planar", M=2, N=2)
+        >>> solver.far_field([1.0, 1.0])
+        array([-0.+2.j, -0.+1.j])
         """
         q_inf = check_array(q_inf, "q_inf", shape=(self.N,), dtype=complex)
         return -q_inf / self._k
