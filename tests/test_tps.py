@@ -191,3 +191,21 @@ def test_bad_kink_domain(kwargs, match):
 def test_bad_oscillon_domain(kwargs, match):
     with pytest.raises(ValueError, match=match):
         tps.solve_oscillon(Gamma=2.5, M=2, t0=0.0, n_harmonics=4, n_nodes=10, **kwargs)
+
+
+def test_oscillon_solution_regular_at_origin():
+    """For a smooth radial right-hand side the solution has zero slope at r = 0: the one-sided
+    slope (u(r1) - u(0))/r1 vanishes like O(h) (a leaked K0 term would give a log singularity)."""
+    from tps_solver.helmholtz import HelmholtzSolver
+
+    N, M = 6, 2
+    slopes = []
+    hs = [0.1, 0.05, 0.025]
+    for h in hs:
+        r = np.arange(0.0, 12.0 + h / 2, h)
+        solver = HelmholtzSolver(r, "axisymmetric", M, N)
+        q = np.exp(-r ** 2)[None, :] * (1.0 + 1j * np.arange(1, N + 1))[:, None]
+        u = solver.solve(q, np.zeros(N, dtype=complex))
+        slopes.append(np.max(np.abs(u[:, 1] - u[:, 0]) / h))
+    order = np.polyfit(np.log(hs), np.log(slopes), 1)[0]
+    assert 0.8 < order < 1.2           # slope ~ u''(0) h, i.e. u'(0) = 0
