@@ -7,6 +7,7 @@ series (reference: mpmath at 30 digits) and the true jump location are known.
 Run ``python tests/test_contact.py`` to print the truncation study tables used
 in ``validation/sections/contact.md``.
 """
+import inspect
 import math
 
 import mpmath
@@ -224,8 +225,11 @@ def test_polynomial_roots_against_mpmath_degree_60():
     c = contact_polynomial(w, level)
     roots = np.polynomial.polynomial.polyroots(c)
     with mpmath.workdps(30):
-        ref = mpmath.polyroots([mpmath.mpc(x.real, x.imag) for x in c[::-1]],
-                               maxsteps=100, extraprec=60)
+        coeffs = [mpmath.mpc(x.real, x.imag) for x in c]
+        if "asc" in inspect.signature(mpmath.polyroots).parameters:      # mpmath >= 1.4
+            ref = mpmath.polyroots(coeffs, maxsteps=100, extraprec=60, asc=True)
+        else:                                                          # mpmath 1.3: descending only
+            ref = mpmath.polyroots(coeffs[::-1], maxsteps=100, extraprec=60)
     ref = np.array([complex(r) for r in ref])
     assert roots.size == ref.size == 2 * N
     # every numpy root has an mpmath partner; unit-circle (real-crossing) roots to 1e-10
