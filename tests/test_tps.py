@@ -173,6 +173,8 @@ BAD = [
 @pytest.mark.parametrize("solver", ["kink", "oscillon"])
 def test_bad_input_names_parameter(solver, kwargs, match):
     base = dict(Gamma=2.5, M=2, t0=0.0, n_harmonics=4, n_nodes=10)
+    if solver == "oscillon":
+        base["r_core"] = 2.0
     base.update(kwargs)
     fn = tps.solve_kink if solver == "kink" else tps.solve_oscillon
     with pytest.raises(ValueError, match=match):
