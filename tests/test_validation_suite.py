@@ -131,6 +131,15 @@ def test_speed_vs_error_numbers(speed_result, tmp_path):
                 assert h[-1] >= 0.1 * h[0] * mu ** (len(h) - 1)
         for s in speed_result["speedup"]:
             assert s["speedup"] is None or s["speedup"] > 0
+        cycle = speed_result["cycle"]
+        if cycle:
+            c = cycle[0]
+            assert c["converged"] and c["non_flat"], c
+            assert c["error"] <= 1e-12, c          # FDA periodicity defect of the exact lattice cycle
+            for b in cycle[1:]:
+                assert b["periods"] is not None and b["error"] <= b["target"], b
+                assert b["periods"] == 1 or b["history"][b["periods"] - 2] > b["target"]
+                assert np.all(b["history"][b["periods"] - 1:] <= b["target"])
     path = speed_vs_error.plot(speed_result, str(tmp_path / "pareto.png"))
     assert os.path.getsize(path) > 1000
     text = speed_vs_error.render(speed_result)
