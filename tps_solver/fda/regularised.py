@@ -27,6 +27,13 @@ Instantaneous rules (usable as ``simulate(..., impact=rule)``)
 The paper's literal, unnormalised (67) is ``simulate(..., impact="diffused",
 rho_c=...)`` of :mod:`.events`; it is evaluated for comparison.
 
+**Status (measured in** ``validation/cutoff.py`` **).**  Both instantaneous rules
+are *experimental and rejected*: the kernel rule responds at O(1) to a 1e-7
+perturbation of a flat layer (the order of nearly simultaneous impacts enters
+at O(1)); the patch rule's growth factor diverges under refinement like point
+impacts.  They are kept for comparison.  The soft contact below is the model
+that converges.
+
 Soft contact (:func:`simulate_soft`)
 ------------------------------------
 The limiting dynamical process of Appendix A (A.1, (76)-(88)) made finite: the
@@ -49,7 +56,11 @@ The right-hand side is Lipschitz in the state and switches only where a node
 crosses :math:`\zeta = 0` transversally, so -- unlike (54) -- the period map
 is differentiable at a flat layer and the lattice is a consistent
 method-of-lines discretisation of a well-posed semilinear parabolic system;
-refinement at fixed ``cutoff`` converges (measured, second order).  The price:
+refinement at fixed ``cutoff`` converges (measured, second order; the
+flat-layer growth factor tends to its continuum supremum, 1 approached from
+below at scales shorter than ``cutoff``, see ``validation/sections/cutoff.md``).
+:class:`SoftFlatOrbit` gives the flat orbit and its per-mode linearisation in
+closed form.  The price:
 each bounce lasts :math:`\tau_c = \ell^2/\nu`, so the flat orbit is the
 bouncing ball with a contact delay (it tends to (17)-(19) as
 :math:`\ell \to 0`).
@@ -172,15 +183,14 @@ class _Rule:
     def __init__(self, kind, cutoff):
         self.kind = kind
         self.cutoff = {"kind": f"{kind} impact", "length": cutoff}
-        self._K = {}
+        self._lattice, self._K = None, None
 
     def __call__(self, w_minus, contact, e, lattice, free):
         if self.kind == "patch":
             return patch_impact(w_minus, contact, e, lattice, free, self.cutoff["length"])
-        key = id(lattice)
-        if key not in self._K:
-            self._K = {key: kernel_matrix(lattice, self.cutoff["length"])}
-        return kernel_impact(w_minus, contact, e, lattice, free, self._K[key])
+        if self._lattice is not lattice:             # cache for the lattice in use (held, so never stale)
+            self._lattice, self._K = lattice, kernel_matrix(lattice, self.cutoff["length"])
+        return kernel_impact(w_minus, contact, e, lattice, free, self._K)
 
     def __repr__(self):
         return f"regularised_impact({self.kind!r}, cutoff={self.cutoff['length']!r})"
@@ -275,6 +285,13 @@ def simulate_soft(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, *, cuto
         Tolerances of the ``Radau`` solver (sparse analytic Jacobian).
     max_step : float, optional
         Largest step; default ``tau_c / 4`` so that no contact is stepped over.
+
+    Notes
+    -----
+    Every contact entry is a discontinuity of the right-hand side that Radau
+    resolves by step rejection.  Near a flat layer this costs 1-3 s per period
+    for 9-17 nodes; states with repeated contacts are much slower (a 33-node
+    kink: about 1900 steps per time unit once contacts repeat at the front).
 
     Returns
     -------
