@@ -49,3 +49,15 @@ def test_continuum_n_convergence_rates():
     _, slope_kink = tps_branches.n_convergence("planar", Ns=(16, 32, 64, 128), n_nodes=8)
     assert slope_osc < -4.0
     assert slope_kink < -0.4
+
+
+def test_kink_preset_statements():
+    from validation import presets
+
+    rows = {r["preset"]: r for r in presets.study("planar", Ns=(16, 32), periods=6)}
+    interior, paper = rows["interior (e = 0.45)"], rows["paper (t0 = 0)"]
+    assert not interior["tps_default_converged"] and interior["tps_default_status"] == 4
+    assert not interior["fine_exists"] and 12.0 < interior["fine_effective_spacing"] < 15.5
+    assert interior["coarse_exists"] and interior["fda_stable"] and interior["fda_defect"] < 1e-11
+    assert interior["tps_vs_exact_order"] > 0.6
+    assert paper["tps_default_status"] == 2 and paper["fine_status"] == 2 and not paper["coarse_exists"]
