@@ -79,6 +79,10 @@ class StabilityResult(Bunch):
         Nodes that stuck to the plate during the last period or are stuck at its end.
     cutoff : dict
         Regularisation length in force.
+    cutoff_limited : bool
+        True when the verdict depends on the grid: point impacts (whose flat-layer growth
+        factor scales like 1/dx), a rule without a declared length, or a lattice spacing
+        larger than a quarter of the cut-off length.
     lattice, method, period, section_time
     """
 
@@ -185,7 +189,7 @@ def _fit_growth(dist, saturation):
 def check_stability(solution, periods=20, n_nodes=None, method="exact", *, length=8.0,
                     boundary=None, perturbation=1e-8, seed=0, jacobian=False, jacobian_step=1e-7,
                     jacobian_rtol=1e-3, defect_tol=1e-6, saturation=1e-3, impact="point", rho_c=None,
-                    **simulate_kw):
+                    cutoff=None, **simulate_kw):
     r"""Hand a limit cycle to the FDA and measure its stability (see the module docstring).
 
     Parameters
@@ -201,7 +205,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     n_nodes : int, optional
         Lattice size.  Flat layer: default 21.  TPS solution: default the
         solution's own nodes; otherwise the solution is interpolated.
-    method : {"exact", "ode"}
+    method : {"exact", "ode", "soft"}
     length : float
         Length of the flat planar lattice (flat layers only).
     boundary : {"neumann", "pinned"}, optional
@@ -226,6 +230,9 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         factor is fitted on the periods before it is reached.
     impact, rho_c
         Impact rule passed to :func:`simulate` (the cut-off in force).
+    cutoff : float, optional
+        Soft-contact length for ``method="soft"`` (required there); a flat layer is then
+        compared with the soft model's own flat orbit.
     **simulate_kw
         Further keywords for :func:`simulate` (e.g. ``stick_velocity``, ``rtol``).
 
@@ -241,7 +248,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     True
     """
     periods = check_int(periods, "periods", minimum=2)
-    method = check_choice(method, "method", ("exact", "ode"))
+    method = check_choice(method, "method", ("exact", "ode", "soft"))
     perturbation = check_positive(perturbation, "perturbation")
     jacobian_step = check_positive(jacobian_step, "jacobian_step")
     jacobian_rtol = check_positive(jacobian_rtol, "jacobian_rtol")
@@ -250,6 +257,13 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     if boundary is not None:
         boundary = check_choice(boundary, "boundary", ("neumann", "pinned"))
     kw = dict(simulate_kw, impact=impact, rho_c=rho_c)
+    if method == "soft":
+        cutoff = check_positive(cutoff, "cutoff") if cutoff is not None else None
+        if cutoff is None:
+            raise ValueError("cutoff must be a finite number > 0 when method='soft', got None")
+        kw = dict(simulate_kw, cutoff=cutoff)
+    elif cutoff is not None:
+        raise ValueError(f"cutoff is only used with method='soft', got method={method!r}")
     notes = []
     if _is_flat(solution):
         fl = solution
@@ -257,8 +271,17 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         lattice = Lattice.planar(n_nodes=n, length=check_positive(length, "length"),
                                  boundary=boundary or "neumann")
         Gamma, e, T = fl.Gamma, fl.e, fl.period
-        t_s = fl.t0 + 0.5 * T
-        w0, z0 = flat_state(lattice, fl, t_s)
+        if method == "soft":
+            # the soft model's own flat orbit (it differs from (17)-(19) by O(cutoff^2))
+            from .fda.regularised import SoftFlatOrbit
+
+            orb = SoftFlatOrbit(fl.Gamma, fl.M, fl.e, cutoff, branch=fl.branch)
+            t_s = orb.t_exit + 0.5 * orb.flight
+            w_s, z_s = orb.state(t_s)
+            w0, z0 = np.full(n, float(w_s)), np.full(n, float(z_s))
+        else:
+            t_s = fl.t0 + 0.5 * T
+            w0, z0 = flat_state(lattice, fl, t_s)
         flat = fl
     elif all(hasattr(solution, a) for a in ("geometry", "nodes", "velocity", "height", "period")):
         sol = solution
@@ -335,14 +358,26 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
             notes.append(f"period map not differentiable at the orbit: one-sided Jacobians differ by "
                          f"{gap:.3g} (largest entry {big:.3g}); impact order matters (hazard 7)")
 
-    cutoff = ref.cutoff
+    cutoff = dict(ref.cutoff)
+    if cutoff["kind"] == "lattice spacing":
+        limited, why = True, ("point impacts: the flat-layer growth factor scales like 1/dx under refinement "
+                              "(validation/sections/cutoff.md), so this verdict holds for this spacing only")
+    elif cutoff.get("length") is None:
+        limited, why = True, "custom impact rule without a declared cut-off length"
+    else:
+        limited = bool(lattice.spacing > 0.25 * cutoff["length"])
+        why = (f"lattice spacing {lattice.spacing:.3g} does not resolve the cut-off {cutoff['length']:.3g} "
+               "(need spacing <= cutoff/4)")
+    if limited:
+        notes.append("verdict is cut-off-limited: " + why)
     final_defect = float(np.max(defects[-1])) if defects.size else float("nan")
     stable = bool(ref.success and np.isfinite(growth) and growth < 1.0 and final_defect <= defect_tol)
     if not ref.success:
         notes.insert(0, f"reference run stopped: {ref.message}")
     verdict = "stable" if stable else "not stable"
     msg = (f"{verdict} on this lattice ({lattice.geometry}, {lattice.n_nodes} nodes, "
-           f"cut-off: {cutoff['kind']} = {cutoff['length']:.4g}): growth factor {growth:.4g} per period, "
+           f"cut-off: {cutoff['kind']} = {cutoff['length'] if cutoff['length'] is None else format(cutoff['length'], '.4g')}): "
+           f"growth factor {growth:.4g} per period, "
            f"final defect {final_defect:.3g}, {events_per_period[-1] if events_per_period.size else 0} "
            f"events in the last period, {sticking.size} sticking nodes")
     if notes:
@@ -352,5 +387,5 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         growth_window=window,
         multipliers=multipliers, multipliers_kind=kind, uniform_multipliers=uniform,
         differentiable=differentiable, stable=stable, message=msg, events_per_period=events_per_period,
-        sticking_nodes=sticking, cutoff=cutoff, lattice=lattice, method=method, period=T,
+        sticking_nodes=sticking, cutoff=cutoff, cutoff_limited=limited, lattice=lattice, method=method, period=T,
         section_time=t_s, periods=periods, success=bool(ref.success))

@@ -18,7 +18,7 @@ from .ode import OdePropagator
 
 __all__ = ["simulate", "SimulationResult"]
 
-METHODS = ("exact", "ode")
+METHODS = ("exact", "ode", "soft")
 
 
 class SimulationResult(Bunch):
@@ -58,7 +58,7 @@ def _check_state(value, name, n):
 def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exact", *,
              stuck0=None, impact="point", rho_c=None, stick_velocity=1e-6,
              max_events_per_cycle=None, t_eval=None, time_tol=None,
-             rtol=1e-12, atol=1e-12, ode_solver="DOP853", samples_per_step=8):
+             rtol=1e-12, atol=1e-12, ode_solver="DOP853", samples_per_step=8, cutoff=None):
     r"""Integrate the FDA (53) with impacts (54), sticking and lift-off.
 
     Parameters
@@ -72,7 +72,7 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
         Initial velocity and height (``zeta0 >= 0``).
     t_start, t_end : float
         Time interval, ``t_end > t_start``.
-    method : {"exact", "ode"}
+    method : {"exact", "ode", "soft"}
         ``"exact"``: modal closed form (55)-(56) with a certified contact
         search; ``"ode"``: the paper's Method (2), a scipy ``OdeSolver``
         stepped by hand with vectorised sign-change detection on its dense output.
@@ -96,6 +96,10 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
         Name of a scipy ``OdeSolver`` with dense output (``"DOP853"``, ``"RK45"``, ``"Radau"``, ...).
     samples_per_step : int
         Dense-output samples per solver step for the sign-change scan (``method="ode"``).
+    cutoff : float, optional
+        Physical cut-off length of the soft contact (``method="soft"``, required there):
+        :func:`~tps_solver.fda.regularised.simulate_soft`, the regularised impact model of
+        issue 6 whose results converge under grid refinement at fixed ``cutoff``.
 
     Returns
     -------
@@ -115,6 +119,18 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     """
     if not isinstance(lattice, Lattice):
         raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
+    if method == "soft":
+        if cutoff is None:
+            raise ValueError("cutoff must be a finite number > 0 when method='soft', got None")
+        if impact != "point":
+            raise ValueError(f"impact must be 'point' with method='soft' (the soft contact replaces the "
+                             f"impact rule), got {impact!r}")
+        from .regularised import simulate_soft
+
+        return simulate_soft(lattice, Gamma, e, w0, zeta0, t_start, t_end, cutoff=check_positive(cutoff, "cutoff"),
+                             t_eval=t_eval, rtol=max(rtol, 1e-10), atol=atol)
+    if cutoff is not None:
+        raise ValueError(f"cutoff is only used with method='soft', got cutoff={cutoff!r} with method={method!r}")
     Gamma = check_positive(Gamma, "Gamma")
     e = check_restitution(e, "e")
     n = lattice.n_nodes

@@ -91,6 +91,9 @@ def make_impact_rule(impact="point", rho_c=None):
         for point impacts it is the lattice spacing (filled in by the caller).
     """
     if callable(impact):
+        declared = getattr(impact, "cutoff", None)
+        if isinstance(declared, dict) and "length" in declared:
+            return impact, dict(declared)
         return impact, {"kind": "custom", "length": None}
     impact = check_choice(impact, "impact", IMPACTS)
     if impact == "point":
