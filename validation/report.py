@@ -30,6 +30,7 @@ REPORT_PATH = os.path.join(VALIDATION_DIR, "REPORT.md")
 
 #: Fixed order of the known sections (file stem, title used when the section is missing).
 SECTION_ORDER = (
+    ("discrepancies", "The paper's three discrepancies"),
     ("flat", "Flat layer (bouncing ball), eqs. (17)-(19)"),
     ("linear_stability", "Linear stability of flat layers, eq. (35)"),
     ("helmholtz", "Helmholtz solver, eqs. (45), (48)-(50)"),
@@ -39,12 +40,10 @@ SECTION_ORDER = (
     ("kink", "Kinks"),
     ("oscillon", "Oscillons"),
     ("fda", "Event-driven FDA, eqs. (51)-(63)"),
-    ("fda_benchmark", "FDA benchmark (validation/fda_benchmark.py)"),
     ("lattice", "TPS and FDA on the same lattice"),
     ("cutoff", "Cut-off length (DESIGN hazard 8)"),
     ("speed", "Speed against error"),
     ("figures", "The paper's figures"),
-    ("discrepancies", "The paper's three discrepancies"),
 )
 
 
