@@ -92,8 +92,8 @@ def g_hat(N, M, Gamma):
     Examples
     --------
     >>> g = g_hat(2, 2, 2.5)
-    >>> g[2], g[4]
-    ((-0.4+0j), -0.5j)
+    >>> float(g[2].real), float(g[4].imag), float(g[0].imag)
+    (-0.4, -0.5, 0.5)
     """
     N = check_int(N, "N", minimum=1)
     M = check_int(M, "M", minimum=1)

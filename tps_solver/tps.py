@@ -725,7 +725,7 @@ def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=No
     Examples
     --------
     >>> sol = solve_oscillon(Gamma=2.5, e=0.45, t0=None, n_harmonics=8, n_nodes=40, r_max=5.0)
-    >>> sol.nodes[0], sol.w_hat.shape
+    >>> float(sol.nodes[0]), sol.w_hat.shape
     (0.0, (17, 40))
     """
     r_max, n_nodes = _grid(r_max, n_nodes, "r_max")
