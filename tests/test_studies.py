@@ -43,12 +43,13 @@ def test_continuum_branch_ends_at_a_fold(geometry):
 
 
 def test_continuum_n_convergence_rates():
-    """Documented rates (validation/sections/tps.md): oscillon (dual-cell quadrature) spectral,
-    kink (piecewise-linear quadrature) algebraic, about N^-0.7."""
+    """Documented rates (validation/sections/tps.md): with the dual-cell quadrature in both
+    geometries a node's own high harmonics see only its own q, and the contact condition
+    converges spectrally in N (fitted slopes about -9 over N = 16..64)."""
     _, slope_osc = tps_branches.n_convergence("axisymmetric", Ns=(8, 16, 32), n_nodes=8)
-    _, slope_kink = tps_branches.n_convergence("planar", Ns=(16, 32, 64, 128), n_nodes=8)
+    _, slope_kink = tps_branches.n_convergence("planar", Ns=(8, 16, 32), n_nodes=8)
     assert slope_osc < -4.0
-    assert slope_kink < -0.4
+    assert slope_kink < -4.0
 
 
 def test_kink_preset_statements():

@@ -168,6 +168,13 @@ class HelmholtzSolver:
         Subharmonic order, ``alpha = 1/M``.
     N : int
         Number of harmonics ``n = 1..N``.
+    interpolation : {"linear", "cells"}, optional
+        Exactness class of ``q``.  Planar: ``"linear"`` (default; continuous,
+        piecewise linear between nodes) or ``"cells"`` (piecewise constant on
+        the dual cells, as in the axisymmetric case).  Axisymmetric: ``"cells"``
+        only.  With ``"cells"`` a node's own high harmonics are untouched by
+        its neighbours' values (the cell edges lie h/2 away), which makes the
+        TPS converge spectrally in N.
 
     Attributes
     ----------
@@ -188,9 +195,13 @@ class HelmholtzSolver:
     True
     """
 
-    def __init__(self, nodes, geometry, M, N):
+    def __init__(self, nodes, geometry, M, N, interpolation=None):
         self.nodes = _check_nodes(nodes)
         self.geometry = check_choice(geometry, "geometry", _GEOMETRIES)
+        allowed = ("linear", "cells") if self.geometry == "planar" else ("cells",)
+        if interpolation is None:
+            interpolation = allowed[0]
+        self.interpolation = check_choice(interpolation, "interpolation", allowed)
         self.M = check_int(M, "M", minimum=1)
         self.N = check_int(N, "N", minimum=1)
         self.alpha = 1.0 / self.M
@@ -211,13 +222,21 @@ class HelmholtzSolver:
         x, beta = self.nodes, self.beta
         h = np.diff(x)[:, None]                      # (n-1, 1)
         z = beta[None, :] * h                        # (n-1, N)
-        phi0, phi1 = exp_moments(z)
         self._decay_left = np.exp(-z)                # |.| <= 1
         self._decay_right = self._decay_left
-        # A_{j+1} = e^{-z} A_j + h [p_j phi1 + p_{j+1} (phi0 - phi1)]   (x' <= x)
-        # B_j     = e^{-z} B_{j+1} + h [p_j (phi0 - phi1) + p_{j+1} phi1] (x' >= x)
-        self._wl = (h * phi1, h * (phi0 - phi1))
-        self._wr = (h * (phi0 - phi1), h * phi1)
+        if self.interpolation == "linear":
+            phi0, phi1 = exp_moments(z)
+            # A_{j+1} = e^{-z} A_j + h [p_j phi1 + p_{j+1} (phi0 - phi1)]   (x' <= x)
+            # B_j     = e^{-z} B_{j+1} + h [p_j (phi0 - phi1) + p_{j+1} phi1] (x' >= x)
+            self._wl = (h * phi1, h * (phi0 - phi1))
+            self._wr = (h * (phi0 - phi1), h * phi1)
+        else:
+            # dual cells: p_j on the left half of [x_j, x_{j+1}], p_{j+1} on the right half;
+            # int_0^{1/2} e^{-zs} ds = phi0(z/2)/2 and int_{1/2}^1 = e^{-z/2} phi0(z/2)/2
+            half = 0.5 * exp_moments(0.5 * z)[0]
+            near, far = h * half, h * np.exp(-0.5 * z) * half
+            self._wl = (far, near)
+            self._wr = (near, far)
         ex = -beta[None, :] * x[:, None]
         tiny = ex.real < _LOG_TINY
         self._image = np.where(tiny, 0.0, np.exp(np.where(tiny, 0.0, ex)))   # e^{-beta x}
