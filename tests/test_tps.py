@@ -211,3 +211,35 @@ def test_oscillon_solution_regular_at_origin():
         slopes.append(np.max(np.abs(u[:, 1] - u[:, 0]) / h))
     order = np.polyfit(np.log(hs), np.log(slopes), 1)[0]
     assert 0.8 < order < 1.2           # slope ~ u''(0) h, i.e. u'(0) = 0
+
+
+@pytest.mark.parametrize("parity", [1, -1])
+def test_planar_dual_cells_exact_for_a_step(parity):
+    """interpolation='cells' is exact when q is constant on the dual cells: a step at a cell edge
+    (midpoint between nodes) against the analytic solution of u'' - beta^2 u = q, q = 1 on [0, a)."""
+    from tps_solver.helmholtz import HelmholtzSolver
+
+    M, N, a = 2, 6, 3.05
+    x = np.arange(0.0, 20.0 + 1e-9, 0.1)
+    q = np.where(x < a, 1.0, 0.0)[None, :] * np.ones((N, 1), dtype=complex)
+    u = HelmholtzSolver(x, "planar", M, N, interpolation="cells").solve(q, np.zeros(N), np.full(N, parity))
+    b = np.sqrt(1j * np.arange(1, N + 1) / M)[:, None]
+    X = x[None, :]
+    if parity == 1:      # u'(0) = 0
+        ref = np.where(X < a, -1 / b**2 + np.exp(-b * a) * np.cosh(b * X) / b**2,
+                       -np.sinh(b * a) * np.exp(-b * X) / b**2)
+    else:                # u(0) = 0: inside -1/b^2 + cosh(bx)/b^2 + B sinh(bx), outside D e^{-bx}
+        B = (np.exp(-b * a) - 1) / b**2
+        inside = lambda y: -1 / b**2 + np.cosh(b * y) / b**2 + B * np.sinh(b * y)
+        D = inside(a) * np.exp(b * a)
+        ref = np.where(X < a, inside(X), D * np.exp(-b * X))
+    assert np.max(np.abs(u - ref)) <= 1e-13
+
+
+def test_interpolation_choice_is_validated():
+    from tps_solver.helmholtz import HelmholtzSolver
+
+    with pytest.raises(ValueError, match="interpolation"):
+        HelmholtzSolver(np.linspace(0, 1, 5), "axisymmetric", 2, 3, interpolation="linear")
+    with pytest.raises(ValueError, match="interpolation"):
+        HelmholtzSolver(np.linspace(0, 1, 5), "planar", 2, 3, interpolation="spline")
