@@ -51,6 +51,14 @@ class SimulationResult(Bunch):
     """
 
 
+def stack_samples(samples, n):
+    """Stack ``(t, w, zeta)`` output samples into arrays of shapes (k,), (k, n), (k, n)."""
+    if not samples:
+        return np.empty(0), np.empty((0, n)), np.empty((0, n))
+    return (np.array([s[0] for s in samples]), np.array([s[1] for s in samples]),
+            np.array([s[2] for s in samples]))
+
+
 def _check_state(value, name, n):
     return check_array(value, name, shape=(n,))
 
@@ -197,12 +205,7 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
                        f"cycle containing t = {t:.12g} (chattering or Zeno behaviour); state so far returned")
             break
     events = log.to_array()
-    if samples:
-        te = np.array([s[0] for s in samples])
-        we = np.array([s[1] for s in samples])
-        ze = np.array([s[2] for s in samples])
-    else:
-        te, we, ze = np.empty(0), np.empty((0, n)), np.empty((0, n))
+    te, we, ze = stack_samples(samples, n)
     return SimulationResult(
         t=float(t), w=w, zeta=zeta, stuck=stuck.copy(), events=events, n_events=int(events.size),
         success=status == 0, status=status, message=message, t_eval=te, w_eval=we, zeta_eval=ze,

@@ -76,7 +76,7 @@ from scipy.optimize import brentq
 
 from .._validation import (check_array, check_choice, check_in_range, check_positive, check_real,
                            check_restitution)
-from .driver import SimulationResult
+from .driver import SimulationResult, stack_samples
 from .events import EVENT_DTYPE
 from .lattice import Lattice
 
@@ -382,12 +382,7 @@ def simulate_soft(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, *, cuto
     records.sort(key=lambda r: (r[0], r[1]))
     events = np.array(records, dtype=EVENT_DTYPE).view(np.recarray)
     y = solver.y
-    if samples:
-        te = np.array([s[0] for s in samples])
-        we = np.array([s[1] for s in samples])
-        ze = np.array([s[2] for s in samples])
-    else:
-        te, we, ze = np.empty(0), np.empty((0, n)), np.empty((0, n))
+    te, we, ze = stack_samples(samples, n)
     return SimulationResult(
         t=float(solver.t), w=y[:n].copy(), zeta=y[n:].copy(), stuck=y[n:] < 0.0, events=events,
         n_events=int(events.size), success=status == 0, status=status, message=message, t_eval=te,
