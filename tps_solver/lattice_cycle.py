@@ -36,7 +36,7 @@ import numpy as np
 from scipy.linalg import eigh
 
 from ._result import Bunch
-from ._validation import check_array, check_int, check_positive, check_real
+from ._validation import check_int, check_positive, check_real
 from .flat import FlatLayer
 
 __all__ = ["LatticeCycle", "solve_lattice_cycle"]
@@ -168,25 +168,20 @@ class _CycleProblem:
         self.t0 = flat.t0
         self.level = -math.cos(flat.t0)
         self.coupling = coupling
-        self.A = (self.V * self.lam) @ self.Vinv
-
-    def _R_pairs(self, tc):
-        tau = np.mod(tc[:, None] - tc[None, :], self.T)                     # (j, k)
-        Hjk = _H(self.lam[None, None, :], tau[:, :, None], self.T)          # (j, k, p)
-        return np.einsum("jp,jkp,pk->jk", self.V, Hjk, self.Vinv)
 
     def residual(self, tc):
-        R = self._R_pairs(tc)
+        """F(tc) and H(lambda_p, tc_j - tc_k) of shape (j, k, p), reused by the Jacobian."""
+        tau = np.mod(tc[:, None] - tc[None, :], self.T)                     # (j, k)
+        Hjk = _H(self.lam[None, None, :], tau[:, :, None], self.T)          # (j, k, p)
+        R = np.einsum("jp,jkp,pk->jk", self.V, Hjk, self.Vinv)
         F = -np.cos(tc) + self.J * np.sum(R, axis=1) - self.level
-        return F, R, None
+        return F, Hjk, None
 
-    def jacobian_operator(self, tc, R, _):
+    def jacobian_operator(self, tc, Hjk, _):
         from scipy.sparse.linalg import aslinearoperator
 
         n = tc.size
         # R'(tau) = V diag(lam H - 1/T) V^{-1}  (= A R - I/T)
-        tau = np.mod(tc[:, None] - tc[None, :], self.T)
-        Hjk = _H(self.lam[None, None, :], tau[:, :, None], self.T)
         dH = self.lam[None, None, :] * Hjk - 1.0 / self.T
         Rp = np.einsum("jp,jkp,pk->jk", self.V, dH, self.Vinv)
         Jm = -self.J * Rp
@@ -237,17 +232,7 @@ def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None
     max_iter = check_int(max_iter, "max_iter", minimum=0)
     r_core = check_real(r_core, "r_core")
     x = np.asarray(lattice.nodes, dtype=float)
-    if tc_initial is None:
-        if M % 2:
-            raise ValueError(f"tc_initial must be given for odd M (got M = {M})")
-        if lattice.geometry == "planar":
-            tc = np.where(x >= 0.0, flat.t0, flat.t0 + flat.period / 2)
-        else:
-            tc = np.where(x < r_core, flat.t0 + flat.period / 2, flat.t0)
-    elif callable(tc_initial):
-        tc = check_array(tc_initial(x.copy()), "tc_initial", shape=(x.size,))
-    else:
-        tc = check_array(tc_initial, "tc_initial", shape=(x.size,))
+    tc = tps_module._lattice_initial_tc(lattice, flat, tc_initial, r_core)
     start = time.perf_counter()
     make = lambda nu: _CycleProblem(lattice, flat, nu)
     nu_start = (lattice.spacing / tps_module._decoupled_spacing(M)) ** 2

@@ -210,6 +210,27 @@ class _Problem:
     def __init__(self, geometry, h, n_nodes, flat, N, coupling=1.0, symmetry="kink"):
         from .helmholtz import HelmholtzSolver
 
+        self._setup_forcing(geometry, flat, N, coupling)
+        self.x = _node_positions(geometry, h, n_nodes)
+        if geometry == "planar":
+            # unknowns on staggered nodes (j + 1/2) h; node 0 at the symmetry point x = 0
+            grid = np.concatenate([[0.0], self.x])
+            self.parity = (np.where(self.n % 2 == 0, 1, -1) if symmetry == "kink"
+                           else np.ones(N, dtype=int))
+            self.symmetry = symmetry
+            self.offset = 1
+        else:
+            grid = self.x
+            self.parity = None
+            self.offset = 0
+            self.symmetry = None
+        # coupling nu_c scales the Laplacian: nu_c Lap u - i n alpha u = q  <=>  Lap in x/sqrt(nu_c);
+        # dual cells in both geometries: a node's own high harmonics see only its own value of q,
+        # so the contact condition converges spectrally in N (piecewise-linear q: about N^-0.7)
+        self.solver = HelmholtzSolver(grid / math.sqrt(coupling), geometry, self.M, N, interpolation="cells")
+
+    def _setup_forcing(self, geometry, flat, N, coupling):
+        """Far-field flat layer, harmonics and forcing (43) shared by every discretisation."""
         self.geometry = geometry
         self.flat = flat
         self.Gamma, self.M, self.t0, self.T = flat.Gamma, flat.M, flat.t0, flat.period
@@ -219,25 +240,7 @@ class _Problem:
         self.om = self.n / self.M                       # n alpha
         self.ghat = g_hat(N, self.M, self.Gamma)[N + 1:]
         self.q_inf = -np.exp(-1j * self.om * self.t0) / self.Gamma - self.ghat
-        if geometry == "planar":
-            # unknowns on staggered nodes (j + 1/2) h; node 0 at the symmetry point x = 0
-            self.x = (np.arange(n_nodes) + 0.5) * h
-            grid = np.concatenate([[0.0], self.x])
-            self.parity = (np.where(self.n % 2 == 0, 1, -1) if symmetry == "kink"
-                           else np.ones(N, dtype=int))
-            self.symmetry = symmetry
-            self.offset = 1
-        else:
-            self.x = np.arange(n_nodes) * h
-            grid = self.x
-            self.parity = None
-            self.offset = 0
-            self.symmetry = None
-        # coupling nu_c scales the Laplacian: nu_c Lap u - i n alpha u = q  <=>  Lap in x/sqrt(nu_c)
         self.coupling = coupling
-        # dual cells in both geometries: a node's own high harmonics see only its own value of q,
-        # so the contact condition converges spectrally in N (piecewise-linear q: about N^-0.7)
-        self.solver = HelmholtzSolver(grid / math.sqrt(coupling), geometry, self.M, N, interpolation="cells")
 
     def _extend(self, values):
         """Values on the solver grid (kink: the symmetry point copies the first node)."""
@@ -281,22 +284,18 @@ class _LatticeProblem(_Problem):
     def __init__(self, lattice, flat, N, coupling=1.0):
         from .discrete_helmholtz import LatticeHelmholtz
 
-        self.geometry = lattice.geometry
-        self.flat = flat
-        self.Gamma, self.M, self.t0, self.T = flat.Gamma, flat.M, flat.t0, flat.period
-        self.N = N
-        self.level = -math.cos(flat.t0)
-        self.n = np.arange(1, N + 1)
-        self.om = self.n / self.M
-        self.ghat = g_hat(N, self.M, self.Gamma)[N + 1:]
-        self.q_inf = -np.exp(-1j * self.om * self.t0) / self.Gamma - self.ghat
+        self._setup_forcing(lattice.geometry, flat, N, coupling)
         self.x = np.asarray(lattice.nodes, dtype=float)
         self.parity = None
         self.offset = 0
         self.symmetry = None
-        self.coupling = coupling
         self.lattice = lattice
         self.solver = LatticeHelmholtz(lattice, self.M, N, coupling=coupling)
+
+
+def _node_positions(geometry, h, n_nodes):
+    """Unknown nodes on the solved half-domain: staggered (j + 1/2) h for kinks, j h for oscillons."""
+    return (np.arange(n_nodes) + 0.5) * h if geometry == "planar" else np.arange(n_nodes) * h
 
 
 def _wrap(tc, T):
@@ -607,23 +606,49 @@ def _solve(geometry, Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial, 
     if not isinstance(continuation, bool):
         raise ValueError(f"continuation must be True or False, got {continuation!r}")
     h = length / (n_nodes - (0.5 if geometry == "planar" else 1.0))
-    problem = _Problem(geometry, h, n_nodes, flat, N, symmetry=symmetry)
-    tc = _initial_tc(tc_initial, problem.x, default_tc(problem.x, flat)).astype(float)
+    x = _node_positions(geometry, h, n_nodes)
+    tc = _initial_tc(tc_initial, x, default_tc(x, flat)).astype(float)
+    make = lambda nu: _Problem(geometry, h, n_nodes, flat, N, coupling=nu, symmetry=symmetry)
+    return _run(make, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback,
+                continuation, tail_correction, geometry)
+
+
+def _run(make_problem, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback,
+         continuation, tail_correction, geometry):
+    """Dispatch to continuation, Newton or a fixed-point scheme, and assemble the solution.
+
+    ``make_problem(coupling)`` builds the discretised problem; under continuation the problem
+    at full coupling is built only if the branch gets there.
+    """
+    if not isinstance(continuation, bool):
+        raise ValueError(f"continuation must be True or False, got {continuation!r}")
     start = time.perf_counter()
     path = None
     nu_start = (h / _decoupled_spacing(flat.M)) ** 2
     if scheme == "newton" and continuation and nu_start < 1.0:
-        out = _continuation(lambda nu: _Problem(geometry, h, n_nodes, flat, N, coupling=nu,
-                                                symmetry=symmetry),
-                            tc, tol, max_iter, nu_start, callback)
-        *out, path, problem = out
-    elif scheme == "newton":
-        out = _newton(problem, tc, tol, max_iter, callback)
+        *out, path, problem = _continuation(make_problem, tc, tol, max_iter, nu_start, callback)
     else:
-        out = _fixed_point(problem, tc, tol, max_iter, scheme, paper_sign)
+        problem = make_problem(1.0)
+        if scheme == "newton":
+            out = _newton(problem, tc, tol, max_iter, callback)
+        else:
+            out = _fixed_point(problem, tc, tol, max_iter, scheme, paper_sign)
     elapsed = time.perf_counter() - start
     return _finish(problem, flat, N, *out, scheme, geometry, min_shift, elapsed, path,
                    bool(tail_correction))
+
+
+def _lattice_initial_tc(lattice, flat, tc_initial, r_core):
+    """Initial contact times on a lattice: the user's, or the kink step / oscillon core guess."""
+    x = np.asarray(lattice.nodes, dtype=float)
+    if tc_initial is not None:
+        return _initial_tc(tc_initial, x, None).astype(float)
+    if flat.M % 2:
+        raise ValueError(f"tc_initial must be given for odd M (got M = {flat.M}): t0 + T/2 is a "
+                         "flat-layer phase only for even M")
+    if lattice.geometry == "planar":
+        return np.where(x >= 0.0, flat.t0, flat.t0 + flat.period / 2)
+    return np.where(x < r_core, flat.t0 + flat.period / 2, flat.t0)
 
 
 def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
@@ -790,34 +815,8 @@ def solve_lattice(lattice, Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_in
         raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
     flat, N, tol, max_iter, scheme = _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter,
                                                   scheme, paper_sign)
-    if not isinstance(continuation, bool):
-        raise ValueError(f"continuation must be True or False, got {continuation!r}")
     r_core = check_real(r_core, "r_core")
-    x = np.asarray(lattice.nodes, dtype=float)
-    if tc_initial is None:
-        if flat.M % 2:
-            raise ValueError(f"tc_initial must be given for odd M (got M = {flat.M}): t0 + T/2 is a "
-                             "flat-layer phase only for even M")
-        if lattice.geometry == "planar":
-            default = np.where(x >= 0.0, flat.t0, flat.t0 + flat.period / 2)
-        else:
-            default = np.where(x < r_core, flat.t0 + flat.period / 2, flat.t0)
-    else:
-        default = None
-    tc = _initial_tc(tc_initial, x, default).astype(float)
-    start = time.perf_counter()
-    path = None
-    h = float(lattice.spacing)
-    nu_start = (h / _decoupled_spacing(flat.M)) ** 2
-    problem = _LatticeProblem(lattice, flat, N)
-    if scheme == "newton" and continuation and nu_start < 1.0:
-        out = _continuation(lambda nu: _LatticeProblem(lattice, flat, N, coupling=nu),
-                            tc, tol, max_iter, nu_start, callback)
-        *out, path, problem = out
-    elif scheme == "newton":
-        out = _newton(problem, tc, tol, max_iter, callback)
-    else:
-        out = _fixed_point(problem, tc, tol, max_iter, scheme, paper_sign)
-    elapsed = time.perf_counter() - start
-    return _finish(problem, flat, N, *out, scheme, lattice.geometry, min_shift, elapsed, path,
-                   bool(tail_correction))
+    tc = _lattice_initial_tc(lattice, flat, tc_initial, r_core)
+    return _run(lambda nu: _LatticeProblem(lattice, flat, N, coupling=nu), float(lattice.spacing),
+                flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback, continuation,
+                tail_correction, lattice.geometry)
