@@ -43,7 +43,7 @@ import math
 import numpy as np
 
 from ._result import Bunch
-from ._validation import check_choice, check_int, check_positive, check_real
+from ._validation import check_choice, check_int, check_positive
 from .fda import Lattice, flat_state, simulate
 
 __all__ = ["check_stability", "StabilityResult"]

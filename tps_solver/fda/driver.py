@@ -4,7 +4,6 @@ The run alternates between an integrator's search for the next event
 (:class:`~.exact.ExactPropagator` or :class:`~.ode.OdePropagator`) and the
 shared event layer (:mod:`.events`).
 """
-import math
 
 import numpy as np
 
@@ -49,6 +48,22 @@ class SimulationResult(Bunch):
     n_steps : int
         Search steps (exact) or solver steps (ode).
     """
+
+
+def check_time_window(t_start, t_end, t_eval):
+    """Validate the integration interval and the output times; returns them as floats/array."""
+    t_start = check_real(t_start, "t_start")
+    if t_end is None:
+        raise ValueError("t_end must be given (a finite number > t_start)")
+    t_end = check_real(t_end, "t_end")
+    if t_end <= t_start:
+        raise ValueError(f"t_end must be > t_start = {t_start}, got {t_end}")
+    if t_eval is None:
+        return t_start, t_end, np.empty(0)
+    t_eval = np.sort(check_array(t_eval, "t_eval", ndim=1))
+    if t_eval.size and (t_eval[0] < t_start or t_eval[-1] > t_end):
+        raise ValueError(f"t_eval must lie in [t_start, t_end] = [{t_start}, {t_end}]")
+    return t_start, t_end, t_eval
 
 
 def stack_samples(samples, n):
@@ -107,7 +122,8 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     cutoff : float, optional
         Physical cut-off length of the soft contact (``method="soft"``, required there):
         :func:`~tps_solver.fda.regularised.simulate_soft`, the regularised impact model of
-        issue 6 whose results converge under grid refinement at fixed ``cutoff``.
+        issue 6 whose results converge under grid refinement at fixed ``cutoff``.  Its stiff
+        integrator runs with ``max(rtol, 1e-10)``.
 
     Returns
     -------
@@ -146,12 +162,7 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     zeta = _check_state(zeta0, "zeta0", n)
     if np.any(zeta < 0.0):
         raise ValueError("zeta0 must be >= 0 at every node (the layer cannot be below the plate)")
-    t_start = check_real(t_start, "t_start")
-    if t_end is None:
-        raise ValueError("t_end must be given (a finite number > t_start)")
-    t_end = check_real(t_end, "t_end")
-    if t_end <= t_start:
-        raise ValueError(f"t_end must be > t_start = {t_start}, got {t_end}")
+    t_start, t_end, t_eval = check_time_window(t_start, t_end, t_eval)
     method = check_choice(method, "method", METHODS)
     if stuck0 is None:
         stuck = np.zeros(n, dtype=bool)
@@ -166,12 +177,6 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     rule, cutoff = make_impact_rule(impact, rho_c)
     if cutoff["length"] is None and cutoff["kind"] == "lattice spacing":
         cutoff["length"] = lattice.spacing
-    if t_eval is None:
-        t_eval = np.empty(0)
-    else:
-        t_eval = np.sort(check_array(t_eval, "t_eval", ndim=1))
-        if t_eval.size and (t_eval[0] < t_start or t_eval[-1] > t_end):
-            raise ValueError(f"t_eval must lie in [t_start, t_end] = [{t_start}, {t_end}]")
     if time_tol is None:
         time_tol = 1e-12 if method == "exact" else 1e-9
     time_tol = check_positive(time_tol, "time_tol")

@@ -76,7 +76,7 @@ from scipy.optimize import brentq
 
 from .._validation import (check_array, check_choice, check_in_range, check_positive, check_real,
                            check_restitution)
-from .driver import SimulationResult, stack_samples
+from .driver import SimulationResult, check_time_window, stack_samples
 from .events import EVENT_DTYPE
 from .lattice import Lattice
 
@@ -319,21 +319,10 @@ def simulate_soft(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, *, cuto
     n = lattice.n_nodes
     w = check_array(w0, "w0", shape=(n,))
     z = check_array(zeta0, "zeta0", shape=(n,))
-    t_start = check_real(t_start, "t_start")
-    if t_end is None:
-        raise ValueError("t_end must be given (a finite number > t_start)")
-    t_end = check_real(t_end, "t_end")
-    if t_end <= t_start:
-        raise ValueError(f"t_end must be > t_start = {t_start}, got {t_end}")
+    t_start, t_end, t_eval = check_time_window(t_start, t_end, t_eval)
     rtol = check_positive(rtol, "rtol")
     atol = check_positive(atol, "atol")
     max_step = 0.25 * tau_c if max_step is None else check_positive(max_step, "max_step")
-    if t_eval is None:
-        t_eval = np.empty(0)
-    else:
-        t_eval = np.sort(check_array(t_eval, "t_eval", ndim=1))
-        if t_eval.size and (t_eval[0] < t_start or t_eval[-1] > t_end):
-            raise ValueError(f"t_eval must lie in [t_start, t_end] = [{t_start}, {t_end}]")
 
     L = scipy.sparse.csr_matrix(lattice.operator)
     inv_G = 1.0 / Gamma
