@@ -20,6 +20,7 @@ import numpy as np
 
 import tps_solver as tps
 from tps_solver.fda import simulate
+from validation.tps_branches import _table
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SECTION = os.path.join(HERE, "sections", "lattice.md")
@@ -122,13 +123,6 @@ def stability_of_cycles(n=8, size=140.0, periods=20):
                              max_abs_mu=float(mu[0]) if mu.size else float("nan"),
                              differentiable=chk.differentiable, time=time.perf_counter() - start))
     return rows
-
-
-def _table(rows, keys):
-    out = "| " + " | ".join(keys) + " |\n|" + "---|" * len(keys) + "\n"
-    for r in rows:
-        out += "| " + " | ".join(f"{r[k]:.4g}" if isinstance(r[k], float) else str(r[k]) for k in keys) + " |\n"
-    return out
 
 
 def main():

@@ -174,22 +174,12 @@ def scheme_benchmark(N_list=(30, 128), spacing=15.0, n_nodes=12, repeats=5):
 
 
 # -------------------------------------------------------------------- output
-def _table(rows, keys, fmt=None):
-    fmt = fmt or {}
-    head = "| " + " | ".join(keys) + " |\n|" + "---|" * len(keys) + "\n"
-    body = ""
-    for r in rows:
-        cells = []
-        for k in keys:
-            v = r[k]
-            if k in fmt:
-                cells.append(fmt[k].format(v))
-            elif isinstance(v, float):
-                cells.append(f"{v:.4g}")
-            else:
-                cells.append(str(v))
-        body += "| " + " | ".join(cells) + " |\n"
-    return head + body
+def _table(rows, keys):
+    """Markdown table of ``rows`` over ``keys`` (:func:`validation.report.markdown_table`), floats to 4 digits."""
+    from validation.report import markdown_table
+
+    cell = lambda k: (lambda r: f"{r[k]:.4g}" if isinstance(r[k], float) else str(r[k]))
+    return markdown_table(rows, [(k, cell(k)) for k in keys]) + "\n"
 
 
 def _figures(sv, scans):
