@@ -7,14 +7,18 @@ import pytest
 
 import tps_solver as tps
 from tps_solver.fda import flat_state, simulate
-from tps_solver.fda.regularised import (
-    SoftFlatOrbit, kernel_matrix, lattice_eigenvalues, regularised_impact, simulate_soft,
-    soft_contact_parameters,
-)
+from tps_solver.flat_soft import SoftFlatOrbit, soft_contact_parameters
+from tps_solver.lattice import lattice_eigenvalues
+from validation.impact_rules import kernel_matrix, regularised_impact
 from validation.cutoff import fast_plain, fast_soft, perturbation_growth, soft_simulation_check
 
 GAMMA, E, M = 2.5, 0.45, 2
 EPS = np.finfo(float).eps
+
+
+def simulate_radau(*args, **kw):
+    """The soft contact by the Radau reference integrator (``simulate(..., method="soft-radau")``)."""
+    return simulate(*args, method="soft-radau", **kw)
 
 
 def flat():
@@ -82,7 +86,7 @@ def test_soft_contact_restitution_is_exact_for_uniform_states(V):
     cutoff = 0.3
     tau_c, om2, beta = soft_contact_parameters(E, cutoff)
     t_in = 0.7
-    run = simulate_soft(lat, GAMMA, E, np.full(5, -V), np.zeros(5), t_start=t_in, t_end=t_in + tau_c,
+    run = simulate_radau(lat, GAMMA, E, np.full(5, -V), np.zeros(5), t_start=t_in, t_end=t_in + tau_c,
                         cutoff=cutoff, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(run.w, E * V, rtol=2e-8)
     np.testing.assert_allclose(run.zeta, 0.0, atol=2e-9 * V)
@@ -107,7 +111,7 @@ def test_soft_uniform_mode_tends_to_flat_layer_multipliers():
 
 @pytest.mark.parametrize("c", (-2500.0, -7.0, 0.0, 3.0))
 def test_companion_exponential_against_mpmath(c):
-    from tps_solver.fda.regularised import _expm_companion
+    from tps_solver.flight import expm_companion as _expm_companion
     a = np.array([-1e8, -1e3, -50.0, -2 * math.sqrt(7.0), -3.0, 0.5, 100.0])
     got = _expm_companion(a, c, 0.09)
     with mpmath.workdps(40):
@@ -152,8 +156,8 @@ def test_lattice_eigenvalues_planar_neumann():
     (lambda: soft_contact_parameters(0.0, 0.3), "e"),
     (lambda: soft_contact_parameters(0.45, float("nan")), "cutoff"),
     (lambda: SoftFlatOrbit(GAMMA, M, E, 4.0), "cutoff"),
-    (lambda: simulate_soft("lattice", GAMMA, E, [0.0], [0.0], t_end=1.0, cutoff=0.3), "lattice"),
-    (lambda: simulate_soft(tps.Lattice.planar(n_nodes=3), GAMMA, E, [0.0] * 3, [0.0] * 3, t_end=1.0,
+    (lambda: simulate_radau("lattice", GAMMA, E, [0.0], [0.0], t_end=1.0, cutoff=0.3), "lattice"),
+    (lambda: simulate_radau(tps.Lattice.planar(n_nodes=3), GAMMA, E, [0.0] * 3, [0.0] * 3, t_end=1.0,
                            cutoff=0.0), "cutoff"),
 ])
 def test_bad_input(call, match):

@@ -7,7 +7,7 @@ import pytest
 
 import tps_solver as tps
 from tps_solver.fda import simulate
-from tps_solver.lattice_cycle import _H, _H_int
+from tps_solver.tps.cycle import _H, _H_int
 
 EPS = np.finfo(float).eps
 

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.fda.regularised import SoftFlatOrbit, regularised_impact
+from tps_solver.flat_soft import SoftFlatOrbit
+from validation.impact_rules import regularised_impact
 
 
 def make_flat():

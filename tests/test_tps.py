@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver import tps as tps_module
+from tps_solver.tps.engine import continuation, newton
+from tps_solver.tps.problems import ContinuumProblem, decoupled_spacing
 
 EPS = np.finfo(float).eps
 
@@ -19,7 +20,7 @@ def make_flat(M=2, e=0.45, Gamma=None):
 
 
 def make_problem(geometry="axisymmetric", h=0.5, n=12, N=6, coupling=1.0, symmetry="kink"):
-    return tps_module._Problem(geometry, h, n, make_flat(), N, coupling=coupling, symmetry=symmetry)
+    return ContinuumProblem(geometry, h, n, make_flat(), N, coupling=coupling, symmetry=symmetry)
 
 
 # ------------------------------------------------------------ flat layer ---
@@ -78,7 +79,7 @@ def test_jacobian_matches_finite_differences(geometry, symmetry):
 def test_newton_converges_quadratically_near_flat():
     problem = make_problem("axisymmetric", h=0.5, n=12, N=6)
     tc = problem.t0 + 0.2 * np.exp(-problem.x ** 2)
-    tc_out, _, status, message, nit, history = tps_module._newton(problem, tc, 1e-12, 20)
+    tc_out, _, status, message, nit, history = newton(problem, tc, 1e-12, 20)
     assert status == 0, message
     assert np.max(np.abs(tc_out - problem.t0)) < 1e-10
     h = np.asarray(history)

@@ -12,8 +12,13 @@ Public API (see ``README.md`` for a tour):
   (TPS), eqs. (38)-(50), on the continuum or on an FDA lattice;
 * :func:`solve_lattice_cycle` -- exact single-contact periodic orbits of a
   lattice (the TPS summed to all orders), the reference for TPS and FDA;
-* :class:`Lattice`, :func:`simulate` -- the event-driven FDA, eqs. (51)-(63);
+* :class:`Lattice` -- the FDA's grids and Laplacians, shared by the TPS and the FDA;
+* :func:`simulate`, :data:`METHODS` -- the event-driven FDA, eqs. (51)-(63);
+* :class:`SoftFlatOrbit` -- the flat layer of the soft-contact model;
+* :class:`PeriodicOrbit`, :data:`STATUS` -- the vocabulary of every periodic result;
 * :func:`check_stability` -- hands a limit cycle to the FDA.
+
+See ``ARCHITECTURE.md`` for the layers and what each module owns.
 
 Submodules are imported lazily (PEP 562), so ``import tps_solver`` is cheap.
 """
@@ -24,20 +29,24 @@ __version__ = "0.1.0"
 # public name -> submodule that defines it
 _LAZY = {
     "FlatLayer": "flat",
+    "SoftFlatOrbit": "flat_soft",
     "secular_roots": "linear_stability",
     "growth_rates": "linear_stability",
     "solve_kink": "tps",
     "solve_oscillon": "tps",
     "solve_lattice": "tps",
-    "solve_lattice_cycle": "lattice_cycle",
-    "LatticeCycle": "lattice_cycle",
+    "solve_lattice_cycle": "tps",
+    "LatticeCycle": "tps",
     "PeriodicSolution": "tps",
+    "PeriodicOrbit": "orbit",
+    "STATUS": "orbit",
     "load": "tps",
-    "Lattice": "fda",
+    "Lattice": "lattice",
     "simulate": "fda",
+    "METHODS": "fda",
     "SimulationResult": "fda",
-    "check_stability": "stability",
-    "StabilityResult": "stability",
+    "check_stability": "limit_cycles",
+    "StabilityResult": "limit_cycles",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

@@ -11,6 +11,7 @@ $ tps-solver demo
 """
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 
@@ -36,14 +37,21 @@ def build_parser():
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for mod in _command_modules():
-        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP,
+                           aliases=getattr(mod, "ALIASES", []))
         mod.configure(p)
         p.set_defaults(_run=mod.run)
     return parser
 
 
 def main(argv=None):
-    """Entry point of the ``tps-solver`` script; returns the exit status."""
+    """Entry point of the ``tps-solver`` script; returns the exit status.
+
+    The one place that chooses a matplotlib backend: a non-interactive one
+    (``Agg``) unless ``MPLBACKEND`` is already set, so figures are written to
+    files on machines with no display.
+    """
+    os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

@@ -105,7 +105,7 @@ from scipy import fft as sp_fft
 from scipy.special import polygamma
 
 from ._result import Bunch
-from ._validation import (check_array, check_choice, check_in_range, check_int,
+from ._checks import (check_array, check_choice, check_in_range, check_int,
                           check_positive)
 
 __all__ = ["ContactResult", "contact_polynomial", "contact_times", "trig_sum",

@@ -27,7 +27,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from ._validation import check_choice, check_int, check_positive, check_real, check_restitution
+from ._checks import check_choice, check_int, check_positive, check_real, check_restitution
 from .harmonics import flat_w_hat
 
 __all__ = ["FlatLayer"]

@@ -44,30 +44,91 @@ already gives the jump's mean exactly at the jump (DESIGN hazard 1).
 """
 import numpy as np
 
-from ._validation import check_int, check_positive, check_real
+from ._checks import check_int, check_positive, check_real
 
-__all__ = ["mode_numbers", "g_hat", "evaluate", "flat_w_hat", "sawtooth_tail", "sawtooth", "sawtooth_hat"]
+__all__ = ["mode_numbers", "centred", "height_from_velocity", "g_hat", "evaluate", "flat_w_hat", "sawtooth_tail", "sawtooth", "sawtooth_hat"]
 
 
-def mode_numbers(N):
-    """Return the mode numbers ``n = -N..N`` in storage order.
+def mode_numbers(N, positive=False):
+    """Return the mode numbers ``n = -N..N`` in storage order (or ``1..N``).
 
     Parameters
     ----------
     N : int
         Truncation order, ``N >= 1``.
+    positive : bool
+        Return only the positive modes ``1..N`` (the harmonics the TPS solves for).
 
     Returns
     -------
-    n : ndarray of int, shape (2N+1,)
+    n : ndarray of int, shape (2N+1,) or (N,)
 
     Examples
     --------
     >>> mode_numbers(2)
     array([-2, -1,  0,  1,  2])
+    >>> mode_numbers(3, positive=True)
+    array([1, 2, 3])
     """
     N = check_int(N, "N", minimum=1)
-    return np.arange(-N, N + 1)
+    return np.arange(1, N + 1) if positive else np.arange(-N, N + 1)
+
+
+def centred(w_pos):
+    r"""Centred coefficients of a real, zero-mean series from its positive harmonics.
+
+    Parameters
+    ----------
+    w_pos : ndarray of complex, shape (N, n)
+        Harmonics ``n = 1..N``.
+
+    Returns
+    -------
+    w_hat : ndarray of complex, shape (2N+1, n)
+        Entry ``N + n`` holds :math:`w_n`; :math:`w_0 = 0` and :math:`w_{-n} = \overline{w_n}`.
+
+    Examples
+    --------
+    >>> centred(np.array([[1j], [2.0]]))[:, 0].imag
+    array([-0., -1.,  0.,  1.,  0.])
+    """
+    w_pos = np.asarray(w_pos)
+    N, n = w_pos.shape
+    full = np.zeros((2 * N + 1, n), dtype=complex)
+    full[N + 1:] = w_pos
+    full[:N] = np.conj(w_pos[::-1])
+    return full
+
+
+def height_from_velocity(w_hat, M):
+    r"""Height harmonics :math:`\hat\zeta_n = \hat w_n/(i n\alpha)` for ``n != 0`` (from (39)).
+
+    The mean :math:`\hat\zeta_0` is not fixed by the velocity and is returned as 0;
+    the caller fixes it from the contact condition (40).
+
+    Parameters
+    ----------
+    w_hat : ndarray of complex, shape (2N+1, ...)
+        Centred velocity harmonics.
+    M : int
+        Subharmonic order (:math:`\alpha = 1/M`).
+
+    Returns
+    -------
+    zeta_hat : ndarray of complex, shape (2N+1, ...)
+
+    Examples
+    --------
+    >>> height_from_velocity(np.array([1j, 0.0, -1j]), 1).real
+    array([-1.,  0., -1.])
+    """
+    w_hat = np.asarray(w_hat, dtype=complex)
+    N = (w_hat.shape[0] - 1) // 2
+    n = np.arange(-N, N + 1).reshape((-1,) + (1,) * (w_hat.ndim - 1))
+    zeta_hat = np.zeros_like(w_hat)
+    nz = (n != 0).ravel()
+    zeta_hat[nz] = w_hat[nz] / (1j * n[nz] / M)
+    return zeta_hat
 
 
 def g_hat(N, M, Gamma):

@@ -93,7 +93,7 @@ import numpy as np
 from scipy import linalg, optimize
 
 from ._result import Bunch
-from ._validation import check_choice, check_int, check_positive
+from ._checks import check_choice, check_int, check_positive
 
 __all__ = [
     "secular_roots", "growth_rates", "reduced_secular_function",

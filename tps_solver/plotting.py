@@ -1,4 +1,4 @@
-"""Figures of TPS solutions (Agg-safe; matplotlib is imported only when called).
+"""Figures (matplotlib is imported only when a function is called; the backend is the caller's choice).
 
 * :func:`plot_solution` -- surfaces of zeta(t, r) and w - W (paper Figs. 3-4)
   and polar snapshots of the oscillon (Fig. 5) or profiles of the kink.
@@ -8,13 +8,10 @@ import os
 
 import numpy as np
 
-__all__ = ["plot_solution"]
+__all__ = ["plot_solution", "plot_growth_rates"]
 
 
 def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt
@@ -89,3 +86,44 @@ def plot_solution(sol, directory, n_times=160, prefix=None):
     plt.close(fig)
     paths.append(path)
     return paths
+
+
+def plot_growth_rates(path, kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_points=121):
+    """Draw the linear-stability rates sigma h^2 / nu of (35) against k h (h = 1), both families.
+
+    Parameters
+    ----------
+    path : str
+        Output file (PNG).
+    kh_min, kh_max : float
+    n_modes : int
+        Modes per family.
+    nu : float
+    n_points : int
+
+    Returns
+    -------
+    path : str
+    """
+    plt = _pyplot()
+
+    from .linear_stability import MODES, growth_rates
+
+    kh = np.geomspace(kh_min, kh_max, n_points)
+    fig, ax = plt.subplots(figsize=(7, 5))
+    styles = {"sinuous": "-", "varicose": "--"}
+    for mode in MODES:
+        sig = np.array([growth_rates(x, 1.0, mode, n_modes, nu=nu) for x in kh])
+        for j in range(n_modes):
+            ax.plot(kh, -sig[:, j], styles[mode], color=f"C{j}", label=f"{mode} mode {j + 1}")
+    ax.plot(kh, nu * kh ** 2, ":", color="k", label=r"$\nu k^2$ (trivial root $\gamma=0$, not an eigenvalue)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(r"$k h$")
+    ax.set_ylabel(r"$-\sigma h^2/\nu$ (all $\sigma < 0$)")
+    ax.set_title("Flat-layer perturbations decay: leading rates of (28)-(29)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

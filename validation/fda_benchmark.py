@@ -19,10 +19,9 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-import tps_solver as tps  # noqa: E402
-from tps_solver.fda import flat_state, kink_state  # noqa: E402
+import tps_solver as tps
+from tps_solver.fda import flat_state, kink_state
 
 GAMMA, E, M = 2.5, 0.45, 2
 FIGDIR = os.path.join(os.path.dirname(__file__), "figures")
@@ -132,7 +131,6 @@ def _table(rows, keys):
 
 def _figure(rows, path):
     import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for method, mk in (("exact", "o-"), ("ode", "s--")):

@@ -25,11 +25,9 @@ import sys
 import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if _ROOT not in sys.path:
-    sys.path.insert(0, _ROOT)
 
-from tps_solver import FlatLayer  # noqa: E402
-from validation.report import FIGURES_DIR, merged_config, optional_import, publish  # noqa: E402
+from tps_solver import FlatLayer
+from validation.report import FIGURES_DIR, merged_config, optional_import, publish
 
 #: Fast configuration (tests) and full configuration (``main``).
 FAST = dict(Gamma=2.5, e=0.45, M=2, tps_N=8, tps_nodes=20, tps_r_max=8.0,
@@ -43,7 +41,6 @@ FULL = dict(Gamma=2.5, e=0.45, M=2, tps_N=30, tps_nodes=120, tps_r_max=12.0,
 def _pyplot():
     import matplotlib
 
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt

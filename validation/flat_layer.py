@@ -31,11 +31,9 @@ import time
 import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if _ROOT not in sys.path:
-    sys.path.insert(0, _ROOT)
 
-from tps_solver import FlatLayer  # noqa: E402
-from validation.report import markdown_table, merged_config, optional_import, publish  # noqa: E402
+from tps_solver import FlatLayer
+from validation.report import markdown_table, merged_config, optional_import, publish
 
 #: Fast configuration (tests, demo) and full configuration (``main``).
 FAST = dict(es=(0.45,), Ms=(1, 2), fractions=(0.5,), n_harmonics=16, n_nodes=24, size=8.0, tol=1e-13,

@@ -28,10 +28,7 @@ import sys
 import numpy as np
 from scipy import integrate, optimize
 
-if __package__ in (None, ""):  # allow ``python validation/flat_layer_analytics.py``
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-from tps_solver.flat import FlatLayer  # noqa: E402
+from tps_solver.flat import FlatLayer
 
 __all__ = [
     "paper_flight", "interior_min_height", "quad_coefficients", "mpmath_coefficient", "ode_impact_map",
@@ -324,7 +321,6 @@ def harmonics_table(cases=((2.5, 2, 0.45, "stable"), (2.5, 2, 0.45, "unstable"),
 
 def _plot_multipliers(path, e=0.45, M=2):
     import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     low, high = FlatLayer.stability_window(e, M)

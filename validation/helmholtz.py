@@ -26,11 +26,9 @@ import mpmath as mp
 import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if _ROOT not in sys.path:
-    sys.path.insert(0, _ROOT)
 
-from tps_solver.helmholtz import HelmholtzSolver  # noqa: E402
-from validation.report import FIGURES_DIR, markdown_table, publish  # noqa: E402
+from tps_solver.helmholtz import HelmholtzSolver
+from validation.report import FIGURES_DIR, markdown_table, publish
 
 CASES = (("axisymmetric", "uniform"), ("axisymmetric", "quasilog"),
          ("even", "uniform"), ("even", "quasilog"), ("odd", "uniform"))
@@ -186,7 +184,6 @@ def timing_study(cases=((30, 400), (30, 1600), (128, 400), (256, 400)), M=2, len
 
 def _figure(studies, path):
     import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(5.5, 4.0))

@@ -22,10 +22,8 @@ import mpmath
 import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if _ROOT not in sys.path:
-    sys.path.insert(0, _ROOT)
 
-from tps_solver.linear_stability import (  # noqa: E402
+from tps_solver.linear_stability import (
     KAPPA_C, MODES, chebyshev_eigenvalues, growth_rates, secular_roots,
 )
 
@@ -188,10 +186,9 @@ def _fmt_table(header, rows):
 
 def main():
     import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from tps_solver._commands.stability import plot as plot_sigma
+    from tps_solver.plotting import plot_growth_rates as plot_sigma
 
     os.makedirs(FIG_DIR, exist_ok=True)
     print("## Agreement of the first 10 eigenvalues, Chebyshev (n_cheb = 40) vs (35), max relative difference\n")

@@ -17,10 +17,8 @@ import time
 import traceback
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if _ROOT not in sys.path:
-    sys.path.insert(0, _ROOT)
 
-from validation.report import REPORT_PATH, build_report, optional_import  # noqa: E402
+from validation.report import REPORT_PATH, build_report, optional_import
 
 #: Validation modules, in the order they run.
 MODULES = ("flat_layer_analytics", "linear_stability", "tps_branches", "flat_layer", "kink", "oscillon",

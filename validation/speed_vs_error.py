@@ -35,11 +35,9 @@ import sys
 import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if _ROOT not in sys.path:
-    sys.path.insert(0, _ROOT)
 
-from tps_solver import FlatLayer  # noqa: E402
-from validation.report import (FIGURES_DIR, markdown_table, median_time, merged_config,  # noqa: E402
+from tps_solver import FlatLayer
+from validation.report import (FIGURES_DIR, markdown_table, median_time, merged_config,
                                optional_import, publish)
 
 PERTURBATION = 0.05
@@ -335,7 +333,7 @@ def lattice_cycle_rows(cfg, repeats=5):
         cycle time, if the cycle's error is <= the target).  Empty if
         :func:`~tps_solver.solve_lattice_cycle` does not exist.
     """
-    if optional_import("tps_solver.lattice_cycle") is None:
+    if optional_import("tps_solver.tps.cycle") is None:
         return []
     from tps_solver import Lattice, simulate, solve_lattice_cycle
 
@@ -482,7 +480,6 @@ def plot(result, path):
     """Pareto plot: error against median wall time, one marker per method and problem."""
     import matplotlib
 
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 5.5))

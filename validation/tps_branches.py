@@ -19,7 +19,8 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from tps_solver import tps as tps_module
+from tps_solver.tps.engine import continuation, newton
+from tps_solver.tps.problems import ContinuumProblem, decoupled_spacing
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FIG = os.path.join(HERE, "figures")
@@ -42,10 +43,10 @@ def branch_end(geometry, flat, N=16, n_nodes=30, h=0.2, r_core=1.0, tol=1e-11):
     dict with ``status``, ``fold_spacing`` (h / sqrt(nu*)), ``coupling``, ``tc``,
     ``path`` (rows of coupling, Newton iterations, residual) and ``problem_factory``.
     """
-    make = lambda nu: tps_module._Problem(geometry, h, n_nodes, flat, N, coupling=nu)
+    make = lambda nu: ContinuumProblem(geometry, h, n_nodes, flat, N, coupling=nu)
     p0 = make(1.0)
-    nu0 = (h / tps_module._decoupled_spacing(flat.M)) ** 2
-    out = tps_module._continuation(make, _initial(p0, flat, geometry, r_core), tol, 30, nu0)
+    nu0 = (h / decoupled_spacing(flat.M)) ** 2
+    out = continuation(make, _initial(p0, flat, geometry, r_core), tol, 30, nu0)
     tc, status, path = out[0], out[2], out[6]
     nu = path[-1][0]
     return dict(status=status, coupling=nu, fold_spacing=h / math.sqrt(nu), tc=tc, path=path,
@@ -73,7 +74,7 @@ def fold_singular_values(geometry, Gamma=2.5, e=0.45, N=16, n_nodes=30, h=0.2,
     for frac in fractions:
         nu = end["coupling"] / frac
         problem = end["make"](nu)
-        out = tps_module._newton(problem, tc, 1e-12, 30)
+        out = newton(problem, tc, 1e-12, 30)
         sv = np.linalg.svd(_dense_jacobian(problem, out[0]), compute_uv=False)
         rows.append(dict(spacing=h / math.sqrt(nu), sigma_min=float(sv[-1]), converged=out[2] == 0))
     return rows, end["fold_spacing"]
@@ -185,7 +186,6 @@ def _table(rows, keys):
 def _figures(sv, scans):
     import matplotlib
 
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     os.makedirs(FIG, exist_ok=True)

@@ -36,7 +36,6 @@ def describe(fl):
 def plot(fl, path):
     """Draw zeta(t) and W(t) over two periods to ``path`` (Agg backend)."""
     import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 

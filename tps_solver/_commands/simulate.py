@@ -48,7 +48,6 @@ def initial_state(case, fl, args):
 def plot(lat, fl, t, Z, path, case):
     """Draw zeta - Z_flat over the recorded times (Agg backend)."""
     import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4.5))

@@ -1,16 +1,18 @@
 """``tps-solver validate``: run the validation study and write ``validation/REPORT.md``.
 
-The validation scripts live in the source tree (``validation/``), not in the
-installed package, so this command needs a checkout: it looks for
-``validation/run_all.py`` next to the ``tps_solver`` package (editable
-install) and then in the current directory.
+The validation studies live in the source tree (the ``validation`` package next
+to ``tps_solver``), not in the installed wheel, so this command needs a source
+checkout: it looks for ``validation/run_all.py`` next to the ``tps_solver``
+package (an editable install) and then in the current directory, and runs
+``python -m validation.run_all`` there in a subprocess.  From a non-editable
+install outside a checkout it says so and exits with status 2.
 """
-import importlib
 import os
+import subprocess
 import sys
 
 NAME = "validate"
-HELP = "Run the full validation study (validation/run_all.py) and write validation/REPORT.md."
+HELP = "Run the full validation study (python -m validation.run_all) and write validation/REPORT.md; needs a checkout."
 
 
 def configure(parser):
@@ -29,15 +31,19 @@ def find_root():
     return None
 
 
+def command(args):
+    """The ``python -m validation...`` command line that ``run`` executes (a list of str)."""
+    if args.report_only:
+        return [sys.executable, "-m", "validation.report"]
+    argv = ["--skip", args.skip] + (["--only", args.only] if args.only is not None else [])
+    return [sys.executable, "-m", "validation.run_all"] + argv
+
+
 def run(args):
     root = find_root()
     if root is None:
-        print("tps-solver validate: error: validation/run_all.py not found; run this command from a "
-              "source checkout of tps_solver (or install it with `pip install -e .`)", file=sys.stderr)
+        print("tps-solver validate: error: this command needs a source checkout of tps_solver "
+              "(validation/run_all.py was not found next to the installed package or in the current "
+              "directory); run it from the checkout's root", file=sys.stderr)
         return 2
-    if root not in sys.path:
-        sys.path.insert(0, root)
-    if args.report_only:
-        return importlib.import_module("validation.report").main()
-    argv = ["--skip", args.skip] + (["--only", args.only] if args.only is not None else [])
-    return importlib.import_module("validation.run_all").main(argv)
+    return subprocess.call(command(args), cwd=root)

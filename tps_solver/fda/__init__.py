@@ -1,13 +1,17 @@
 """The event-driven finite-difference approximation (FDA), eqs. (51)-(63), (66)-(67).
 
-* :class:`Lattice` -- planar (63) and axisymmetric (66) grids with a conservative Laplacian;
-* :func:`simulate` -- method of lines with impacts (54), sticking and lift-off,
-  integrated exactly between events (55)-(56) or by a scipy ODE solver;
-* :class:`SimulationResult`;
-* :func:`flat_state`, :func:`kink_state` -- initial states.
+* :func:`simulate` -- the one driver loop: method of lines with impacts (54), sticking and
+  lift-off, for every method of :data:`METHODS`;
+* :class:`Integrator`, :class:`Step` -- the interface every method implements (:mod:`.base`);
+* :class:`SimulationResult` (:mod:`.common`);
+* :func:`flat_state`, :func:`kink_state` -- initial states;
+* :class:`~tps_solver.lattice.Lattice` is re-exported here for convenience.
 """
-from .driver import SimulationResult, simulate
-from .lattice import Lattice
+from ..lattice import Lattice
+from .base import Integrator, Step
+from .common import SimulationResult
+from .driver import METHODS, simulate
 from .states import flat_state, kink_state
 
-__all__ = ["Lattice", "simulate", "SimulationResult", "flat_state", "kink_state"]
+__all__ = ["Lattice", "simulate", "METHODS", "Integrator", "Step", "SimulationResult", "flat_state",
+           "kink_state"]

@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from .._validation import check_choice, check_nonnegative, check_positive
+from .._checks import check_choice, check_nonnegative, check_positive
 
 __all__ = ["EVENT_DTYPE", "point_impact", "diffused_impact", "make_impact_rule", "EventLog",
            "event_sets", "apply_contacts", "apply_liftoff", "pulled_off"]

@@ -60,31 +60,14 @@ import numpy as np
 from scipy.linalg import eigh
 from scipy.optimize import brentq
 
+from .._checks import check_int, check_positive
+from ..flight import phi1, phi2
+from .base import Integrator, Step
 from .events import event_sets
 
-__all__ = ["phi1", "phi2", "forced_response", "Modes", "Segment", "ExactPropagator"]
+__all__ = ["forced_response", "Modes", "Segment", "ExactPropagator"]
 
 _EPS = np.finfo(float).eps
-
-
-def phi1(z):
-    r""":math:`\varphi_1(z) = (e^z - 1)/z`, with :math:`\varphi_1(0) = 1` (vectorised, stable)."""
-    z = np.asarray(z, dtype=float)
-    return np.divide(np.expm1(z), z, out=np.ones_like(z), where=z != 0.0)
-
-
-_PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])[::-1]
-
-
-def phi2(z):
-    r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2`, with :math:`\varphi_2(0) = 1/2` (vectorised, stable).
-
-    A 10-term Taylor series is used for :math:`|z| < 0.1` (truncation below 1e-17).
-    """
-    z = np.asarray(z, dtype=float)
-    series = np.polyval(_PHI2_SERIES, z)
-    direct = np.divide(np.expm1(z) - z, z * z, out=series.copy(), where=np.abs(z) >= 0.1)
-    return direct
 
 
 def forced_response(lam, t_c, tau, Gamma):
@@ -287,15 +270,13 @@ def _safe_step(f, fp, A):
     return np.where(fp >= 0.0, (fp + root) / A, neg)
 
 
-class ExactPropagator:
+class ExactPropagator(Integrator):
     """Event search with exact modal propagation (``method="exact"``).
 
-    Parameters
-    ----------
-    lattice : Lattice
-    Gamma : float
+    Options
+    -------
     time_tol : float
-        Simultaneity window of a contact set and floor of the safe step.
+        Simultaneity window of a contact set and floor of the safe step (default 1e-12).
     max_steps : int
         Bound on search steps between two events (raises ``RuntimeError``).
     cache_size : int
@@ -303,15 +284,14 @@ class ExactPropagator:
     """
 
     name = "exact"
+    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64}
 
-    def __init__(self, lattice, Gamma, time_tol=1e-12, max_steps=200000, cache_size=64):
-        self.lattice = lattice
-        self.Gamma = Gamma
-        self.time_tol = time_tol
-        self.max_steps = max_steps
+    def __init__(self, lattice, Gamma, e, **options):
+        super().__init__(lattice, Gamma, e, **options)
+        self.time_tol = check_positive(self.options["time_tol"], "time_tol")
+        self.max_steps = check_int(self.options["max_steps"], "max_steps", minimum=1)
         self._cache = OrderedDict()
-        self._cache_size = cache_size
-        self.n_steps = 0
+        self._cache_size = check_int(self.options["cache_size"], "cache_size", minimum=1)
         self.n_decompositions = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -331,18 +311,11 @@ class ExactPropagator:
         return m
 
     def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
-        """Propagate to the next event or to ``t_stop``.
+        """Propagate to the next event or to ``t_stop`` (see :meth:`Integrator.advance`)."""
+        return Step(*self._locate(t, w, zeta, stuck, t_stop, t_eval))
 
-        Returns
-        -------
-        t_new : float
-        w, zeta : ndarray of float, shape (n_nodes,)
-            State at ``t_new`` (pre-event).
-        contact, liftoff : ndarray of int
-            Nodes in the contact set and lift-off set (both empty at ``t_stop``).
-        samples : list of (float, ndarray, ndarray)
-            ``(t, w, zeta)`` at the entries of ``t_eval`` in ``(t, t_new]``.
-        """
+    def _locate(self, t, w, zeta, stuck, t_stop, t_eval=()):
+        """The next event as ``(t_new, w, zeta, contact, liftoff, samples)`` (pre-event state)."""
         Gamma = self.Gamma
         free = ~stuck
         md = self.modes(free)

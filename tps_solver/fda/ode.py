@@ -18,7 +18,8 @@ import numpy as np
 import scipy.integrate
 from scipy.optimize import brentq
 
-from .._validation import check_choice
+from .._checks import check_choice, check_int, check_positive
+from .base import Integrator, Step
 from .events import event_sets
 
 __all__ = ["OdePropagator"]
@@ -27,39 +28,42 @@ SOLVERS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 _IMPLICIT = ("Radau", "BDF", "LSODA")
 
 
-class OdePropagator:
+class OdePropagator(Integrator):
     """Event search on the dense output of a scipy ``OdeSolver`` (``method="ode"``).
 
-    Parameters
-    ----------
-    lattice : Lattice
-    Gamma : float
+    Options
+    -------
     time_tol : float
-        Simultaneity window of a contact set.
+        Simultaneity window of a contact set (default 1e-9).
     rtol, atol : float
-        Solver tolerances.
-    solver : str
-        One of ``"DOP853"``, ``"RK45"``, ``"RK23"``, ``"Radau"``, ``"BDF"``, ``"LSODA"``.
-    samples : int
-        Dense-output samples per step.
+        Solver tolerances (default 1e-12).
+    ode_solver : str
+        One of ``"DOP853"`` (default), ``"RK45"``, ``"RK23"``, ``"Radau"``, ``"BDF"``, ``"LSODA"``.
+    samples_per_step : int
+        Dense-output samples per step for the sign-change scan (default 8).
     """
 
     name = "ode"
+    OPTIONS = {"time_tol": 1e-9, "rtol": 1e-12, "atol": 1e-12, "ode_solver": "DOP853",
+               "samples_per_step": 8}
 
-    def __init__(self, lattice, Gamma, time_tol=1e-9, rtol=1e-12, atol=1e-12, solver="DOP853",
-                 samples=8):
-        self.lattice = lattice
-        self.Gamma = Gamma
-        self.time_tol = time_tol
-        self.rtol = rtol
-        self.atol = atol
-        self.solver = getattr(scipy.integrate, check_choice(solver, "ode_solver", SOLVERS))
+    def __init__(self, lattice, Gamma, e, **options):
+        super().__init__(lattice, Gamma, e, **options)
+        opts = self.options
+        self.time_tol = check_positive(opts["time_tol"], "time_tol")
+        self.rtol = check_positive(opts["rtol"], "rtol")
+        self.atol = check_positive(opts["atol"], "atol")
+        solver = check_choice(opts["ode_solver"], "ode_solver", SOLVERS)
+        self.solver = getattr(scipy.integrate, solver)
         self.implicit = solver in _IMPLICIT
-        self.samples = samples
-        self.n_steps = 0
+        self.samples = check_int(opts["samples_per_step"], "samples_per_step", minimum=2)
 
     def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
-        """Propagate to the next event or ``t_stop``; same contract as ``ExactPropagator.advance``."""
+        """Propagate to the next event or ``t_stop`` (see :meth:`Integrator.advance`)."""
+        return Step(*self._locate(t, w, zeta, stuck, t_stop, t_eval))
+
+    def _locate(self, t, w, zeta, stuck, t_stop, t_eval=()):
+        """The next event as ``(t_new, w, zeta, contact, liftoff, samples)`` (pre-event state)."""
         Gamma = self.Gamma
         L = self.lattice.operator
         F, S = np.flatnonzero(~stuck), np.flatnonzero(stuck)

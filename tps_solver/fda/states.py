@@ -1,7 +1,7 @@
 """Initial states for FDA runs: flat layers and the paper's kink initial condition (Sec. 4.3.1)."""
 import numpy as np
 
-from .._validation import check_nonnegative, check_real
+from .._checks import check_nonnegative, check_real
 
 __all__ = ["flat_state", "kink_state"]
 

@@ -56,8 +56,8 @@ Cost
 import numpy as np
 from scipy.special import ive, kve
 
-from ._validation import check_array, check_choice, check_int
-from .kernels import exp_moments, helmholtz_beta, radial_half_cell_moments
+from .._checks import check_array, check_choice, check_int
+from ..kernels import exp_moments, helmholtz_beta, radial_half_cell_moments
 
 __all__ = ["HelmholtzSolver"]
 

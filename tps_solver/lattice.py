@@ -29,10 +29,11 @@ is given; the interior sees them as moving Dirichlet data.  This is the
 paper's kink set-up ("pinning of the end points to flat-layer states").
 """
 import numpy as np
+import scipy.linalg
 
-from .._validation import check_array, check_choice, check_int, check_positive
+from ._checks import check_array, check_choice, check_int, check_positive
 
-__all__ = ["Lattice"]
+__all__ = ["Lattice", "lattice_eigenvalues"]
 
 _GEOMETRIES = ("planar", "axisymmetric")
 _BOUNDARIES = ("neumann", "pinned")
@@ -216,3 +217,21 @@ class Lattice:
         return (f"Lattice(geometry={self.geometry!r}, boundary={self.boundary!r}, grid={self.grid!r}, "
                 f"n_nodes={self.n_nodes}, span=[{self.nodes[0]:g}, {self.nodes[-1]:g}], "
                 f"spacing={self.spacing:.4g})")
+
+
+def lattice_eigenvalues(lattice):
+    r"""Eigenvalues :math:`\lambda \ge 0` of :math:`-\underline L` (symmetrised), ascending.
+
+    Parameters
+    ----------
+    lattice : Lattice
+        With Neumann ends (all nodes coupled).
+
+    Returns
+    -------
+    lam : ndarray of float, shape (n_nodes,)
+    """
+    v = np.sqrt(lattice.volumes)
+    S = -lattice.flux / v[:, None] / v[None, :]
+    lam = scipy.linalg.eigvalsh(0.5 * (S + S.T))
+    return np.maximum(lam, 0.0)

@@ -1,10 +1,10 @@
-"""The shared argument checks of ``tps_solver._validation`` (issue 2)."""
+"""The shared argument checks of ``tps_solver._checks`` (issue 2)."""
 import math
 
 import numpy as np
 import pytest
 
-from tps_solver._validation import (
+from tps_solver._checks import (
     check_array, check_choice, check_in_range, check_int, check_nonnegative, check_positive,
     check_real, check_restitution,
 )

@@ -43,7 +43,7 @@ import math
 import numpy as np
 
 from ._result import Bunch
-from ._validation import check_choice, check_int, check_positive
+from ._checks import check_choice, check_int, check_positive
 from .fda import Lattice, flat_state, simulate
 
 __all__ = ["check_stability", "StabilityResult"]
@@ -273,7 +273,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         Gamma, e, T = fl.Gamma, fl.e, fl.period
         if method == "soft":
             # the soft model's own flat orbit (it differs from (17)-(19) by O(cutoff^2))
-            from .fda.regularised import SoftFlatOrbit
+            from .flat_soft import SoftFlatOrbit
 
             orb = SoftFlatOrbit(fl.Gamma, fl.M, fl.e, cutoff, branch=fl.branch)
             t_s = orb.t_exit + 0.5 * orb.flight

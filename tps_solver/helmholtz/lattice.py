@@ -20,7 +20,7 @@ The lattice is closed (Neumann or pinned ends), so there is no far field:
 import numpy as np
 from scipy.linalg import solve_banded
 
-from ._validation import check_int, check_positive
+from .._checks import check_int, check_positive
 
 __all__ = ["LatticeHelmholtz"]
 

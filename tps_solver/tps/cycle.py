@@ -35,34 +35,16 @@ import time
 import numpy as np
 from scipy.linalg import eigh
 
-from ._result import Bunch
-from ._validation import check_int, check_positive, check_real
-from .flat import FlatLayer
+from .._checks import check_int, check_positive, check_real
+from ..flat import FlatLayer
+from ..flight import phi1, taylor_tail
+from ..lattice import Lattice
+from ..orbit import PeriodicOrbit
+from .engine import continuation as run_continuation, newton
+from .problems import decoupled_spacing
+from .solvers import lattice_initial_tc
 
 __all__ = ["LatticeCycle", "solve_lattice_cycle"]
-
-
-def _phi1(z):
-    """expm1(z)/z, = 1 at z = 0."""
-    z = np.asarray(z, dtype=float)
-    safe = np.where(z == 0.0, 1.0, z)
-    return np.where(np.abs(z) < 1e-12, 1.0 + 0.5 * z, np.expm1(safe) / safe)
-
-
-def _taylor_tail(z, order):
-    """(e^z - sum_{k<order} z^k/k!) / z^order, cancellation-free: series for |z| < 1."""
-    z = np.asarray(z, dtype=float)
-    small = np.abs(z) < 1.0
-    zs = np.where(small, z, 0.0)
-    # Horner on sum_{k>=0} z^k / (k + order)!, 24 terms (error < 1/24! for |z| < 1)
-    acc = np.zeros_like(zs)
-    for k in range(24, -1, -1):
-        acc = acc * zs + 1.0 / math.factorial(k + order)
-    zb = np.where(small, 1.0, z)
-    direct = np.expm1(zb)
-    for k in range(1, order):
-        direct = direct - zb ** k / math.factorial(k)
-    return np.where(small, acc, direct / zb ** order)
 
 
 def _H(lam, tau, T):
@@ -76,9 +58,9 @@ def _H(lam, tau, T):
     lam, tau = np.broadcast_arrays(np.asarray(lam, dtype=float), np.asarray(tau, dtype=float))
     mu = lam * T
     x = tau / T
-    p1 = _phi1(mu)
-    f2 = _taylor_tail(mu, 2)
-    val = (f2 - x * _phi1(mu * x)) / p1
+    p1 = phi1(mu)
+    f2 = taylor_tail(mu, 2)
+    val = (f2 - x * phi1(mu * x)) / p1
     return np.where(tau == 0.0, f2 / p1 - 0.5, val)
 
 
@@ -88,20 +70,20 @@ def _H_int(lam, tau, T):
     lam, tau = np.broadcast_arrays(np.asarray(lam, dtype=float), np.asarray(tau, dtype=float))
     mu = lam * T
     x = tau / T
-    f2 = _taylor_tail(mu, 2)
-    f3 = _taylor_tail(mu, 3)
-    return T * (f2 * x - x * x * _taylor_tail(mu * x, 2) - (0.5 * f2 - f3)) / _phi1(mu)
+    f2 = taylor_tail(mu, 2)
+    f3 = taylor_tail(mu, 3)
+    return T * (f2 * x - x * x * taylor_tail(mu * x, 2) - (0.5 * f2 - f3)) / phi1(mu)
 
 
-class LatticeCycle(Bunch):
-    """Exact periodic orbit of a lattice (result of :func:`solve_lattice_cycle`).
+class LatticeCycle(PeriodicOrbit):
+    r"""Exact periodic orbit of a lattice (result of :func:`solve_lattice_cycle`).
 
     Attributes
     ----------
     converged, success : bool
     status : int
-        0 converged; 1 iteration limit; 2 Newton stagnated; 4 continuation ended before
-        full coupling (a fold).
+        A code of :data:`tps_solver.orbit.STATUS` (0 converged, 1 iteration limit,
+        2 stagnation, 3 contact-time failure, 4 the branch ended at a fold, 5 interrupted).
     message : str
     nit : int
     residual : float
@@ -113,6 +95,18 @@ class LatticeCycle(Bunch):
     coupling : float
         Coupling reached (1: the lattice as given).
     lattice, flat, Gamma, e, M, t0, period
+        As in :class:`~tps_solver.orbit.PeriodicOrbit`.
+    J : float
+        The impulse per contact, T/Gamma (44).
+    eigenvalues : ndarray of float, shape (n_nodes,)
+        :math:`\lambda_p` of the coupled lattice operator :math:`A = \nu_c \underline L`.
+    modes, modes_inv : ndarray of float, shape (n_nodes, n_nodes)
+        :math:`V` and :math:`V^{-1}` with :math:`A = V\Lambda V^{-1}`.
+    zeta_offset : ndarray of float, shape (n_nodes,)
+        Constant that makes :math:`\zeta(t_c) = 0` at every node (40).
+    continuation_path : ndarray of float, shape (k, 3)
+        (coupling, Newton steps, residual) per accepted continuation point.
+    time : float
     """
 
     def velocity(self, t):
@@ -126,12 +120,12 @@ class LatticeCycle(Bunch):
         -------
         ndarray of float, shape (n_times, n_nodes)
         """
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        t = self.as_times(t)
         tau = np.mod(t[:, None] - self.tc[None, :], self.period)      # (nt, k)
-        Hk = _H(self._lam[None, None, :], tau[:, :, None], self.period)  # (nt, k, p)
+        Hk = _H(self.eigenvalues[None, None, :], tau[:, :, None], self.period)  # (nt, k, p)
         # w_j = -cos t + J sum_k sum_p V_jp H_p(tau_k) Vinv_pk
-        coef = np.einsum("tkp,pk->tp", Hk, self._Vinv)
-        w = -np.cos(t)[:, None] + self.J * coef @ self._V.T
+        coef = np.einsum("tkp,pk->tp", Hk, self.modes_inv)
+        w = -np.cos(t)[:, None] + self.J * coef @ self.modes.T
         at = tau == 0.0
         return w + np.where(at, 0.5 * self.J, 0.0)
 
@@ -142,18 +136,18 @@ class LatticeCycle(Bunch):
         -------
         ndarray of float, shape (n_times, n_nodes)
         """
-        t = np.atleast_1d(np.asarray(t, dtype=float))
-        return self._height_raw(t) - self._zeta_offset[None, :]
+        t = self.as_times(t)
+        return self._height_raw(t) - self.zeta_offset[None, :]
 
     def _height_raw(self, t):
         tau = np.mod(t[:, None] - self.tc[None, :], self.period)
-        Hk = _H_int(self._lam[None, None, :], tau[:, :, None], self.period)
-        coef = np.einsum("tkp,pk->tp", Hk, self._Vinv)
-        return -np.sin(t)[:, None] + self.J * coef @ self._V.T
+        Hk = _H_int(self.eigenvalues[None, None, :], tau[:, :, None], self.period)
+        coef = np.einsum("tkp,pk->tp", Hk, self.modes_inv)
+        return -np.sin(t)[:, None] + self.J * coef @ self.modes.T
 
 
-class _CycleProblem:
-    """F(tc) = 0 for the exact lattice cycle, with the interface used by tps._newton."""
+class CycleProblem:
+    """F(tc) = 0 for the exact lattice cycle (the problem protocol of :mod:`tps_solver.tps.engine`)."""
 
     def __init__(self, lattice, flat, coupling):
         D = np.asarray(lattice.volumes, dtype=float)
@@ -218,9 +212,6 @@ def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None
     >>> cyc.converged
     True
     """
-    from . import tps as tps_module
-    from .fda import Lattice
-
     if not isinstance(lattice, Lattice):
         raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
     if lattice.boundary != "neumann":
@@ -232,17 +223,17 @@ def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None
     max_iter = check_int(max_iter, "max_iter", minimum=0)
     r_core = check_real(r_core, "r_core")
     x = np.asarray(lattice.nodes, dtype=float)
-    tc = tps_module._lattice_initial_tc(lattice, flat, tc_initial, r_core)
+    tc = lattice_initial_tc(lattice, flat, tc_initial, r_core)
     start = time.perf_counter()
-    make = lambda nu: _CycleProblem(lattice, flat, nu)
-    nu_start = (lattice.spacing / tps_module._decoupled_spacing(M)) ** 2
+    make = lambda nu: CycleProblem(lattice, flat, nu)
+    nu_start = (lattice.spacing / decoupled_spacing(M)) ** 2
     path = []
     if continuation and nu_start < 1.0:
-        tc, _, status, message, nit, history, path, problem = tps_module._continuation(
+        tc, _, status, message, nit, history, path, problem = run_continuation(
             make, tc.astype(float), tol, max_iter, nu_start)
     else:
         problem = make(1.0)
-        tc, _, status, message, nit, history = tps_module._newton(problem, tc.astype(float), tol, max_iter)
+        tc, _, status, message, nit, history = newton(problem, tc.astype(float), tol, max_iter)
     tc = np.mod(tc, flat.period)
     cyc = LatticeCycle(
         converged=status == 0, success=status == 0, status=status, message=message, nit=nit,
@@ -251,7 +242,7 @@ def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None
         coupling=problem.coupling, lattice=lattice, flat=flat, Gamma=Gamma, e=flat.e, M=M,
         t0=flat.t0, period=flat.period, J=problem.J, time=time.perf_counter() - start,
         continuation_path=np.asarray(path, dtype=float).reshape(-1, 3))
-    cyc._lam, cyc._V, cyc._Vinv = problem.lam, problem.V, problem.Vinv
-    cyc._zeta_offset = np.zeros(x.size)
-    cyc._zeta_offset = np.diag(cyc._height_raw(tc))
+    cyc.eigenvalues, cyc.modes, cyc.modes_inv = problem.lam, problem.V, problem.Vinv
+    cyc.zeta_offset = np.zeros(x.size)
+    cyc.zeta_offset = np.diag(cyc._height_raw(tc))
     return cyc

@@ -1,11 +1,14 @@
-"""``tps-solver stability``: growth rates of flat-layer perturbations, eqs. (28)-(35).
+"""``tps-solver linear-stability``: growth rates of flat-layer perturbations, eqs. (28)-(35).
 
 Examples
 --------
-$ tps-solver stability --kh 1.0
-$ tps-solver stability --kh 1.0 --n-modes 5 --plot sigma.png
+$ tps-solver linear-stability --kh 1.0
+$ tps-solver linear-stability --kh 1.0 --n-modes 5 --plot sigma.png
+
+(``tps-solver stability`` is kept as an alias.)
 """
-NAME = "stability"
+NAME = "linear-stability"
+ALIASES = ["stability"]
 HELP = "Linear stability of a flat layer: leading growth rates sigma of sinuous and varicose modes, eq. (35)."
 
 
@@ -36,43 +39,16 @@ def describe(kh, n_modes, nu=1.0):
     return "\n".join(lines)
 
 
-def plot(path, kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_points=121):
-    """Draw sigma h^2 / nu against k h (h = 1) for both families to ``path`` (Agg backend)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from ..linear_stability import MODES, growth_rates
-
-    kh = np.geomspace(kh_min, kh_max, n_points)
-    fig, ax = plt.subplots(figsize=(7, 5))
-    styles = {"sinuous": "-", "varicose": "--"}
-    for mode in MODES:
-        sig = np.array([growth_rates(x, 1.0, mode, n_modes, nu=nu) for x in kh])
-        for j in range(n_modes):
-            ax.plot(kh, -sig[:, j], styles[mode], color=f"C{j}", label=f"{mode} mode {j + 1}")
-    ax.plot(kh, nu * kh ** 2, ":", color="k", label=r"$\nu k^2$ (trivial root $\gamma=0$, not an eigenvalue)")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel(r"$k h$")
-    ax.set_ylabel(r"$-\sigma h^2/\nu$ (all $\sigma < 0$)")
-    ax.set_title("Flat-layer perturbations decay: leading rates of (28)-(29)")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
 def run(args):
-    from .._validation import check_in_range, check_int, check_positive
+    from .._checks import check_in_range, check_int, check_positive
 
     check_in_range(args.kh, "--kh", 2e-6, 2e3)
     check_int(args.n_modes, "--n-modes", minimum=1, maximum=1000)
     check_positive(args.nu, "--nu")
     print(describe(args.kh, args.n_modes, args.nu))
     if args.plot:
-        plot(args.plot, n_modes=args.n_modes, nu=args.nu)
+        from ..plotting import plot_growth_rates
+
+        plot_growth_rates(args.plot, n_modes=args.n_modes, nu=args.nu)
         print(f"wrote {args.plot}")
     return 0

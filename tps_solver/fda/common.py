@@ -1,0 +1,69 @@
+"""Helpers shared by the FDA driver and its integrators: the result type, time windows, samples."""
+import numpy as np
+
+from .._checks import check_array, check_real
+from .._result import Bunch
+
+__all__ = ["SimulationResult", "check_time_window", "stack_samples", "SIMULATION_STATUS"]
+
+SIMULATION_STATUS = {
+    0: "reached t_end",
+    2: "event bound exceeded (chattering or Zeno behaviour)",
+    3: "contact search stalled",
+    5: "interrupted (KeyboardInterrupt); the state so far is returned",
+}
+
+
+class SimulationResult(Bunch):
+    """Result of :func:`simulate`.
+
+    Attributes
+    ----------
+    t : float
+        Final time (``t_end``, or the time the run stopped).
+    w, zeta : ndarray of float, shape (n_nodes,)
+        Final state.
+    stuck : ndarray of bool, shape (n_nodes,)
+        Nodes stuck to the plate at ``t``.
+    events : numpy.recarray
+        Time-ordered records with fields ``t``, ``node``, ``kind``
+        (``"impact"``, ``"stick"``, ``"liftoff"``) and ``w_before``.
+    n_events : int
+    success : bool
+    status : int
+        A code of :data:`SIMULATION_STATUS`: 0 reached ``t_end``; 2 event bound exceeded
+        (chattering); 3 contact search stalled; 5 interrupted (the state so far).
+    message : str
+    t_eval : ndarray of float, shape (k,)
+    w_eval, zeta_eval : ndarray of float, shape (k, n_nodes)
+        States at the requested output times (pre-event values at event instants).
+    cutoff : dict
+        The regularisation length in force (hazard 8): ``{"kind", "length"}``.
+    method : str
+    n_steps : int
+        Search steps (exact) or solver steps (ode).
+    """
+
+
+def check_time_window(t_start, t_end, t_eval):
+    """Validate the integration interval and the output times; returns them as floats/array."""
+    t_start = check_real(t_start, "t_start")
+    if t_end is None:
+        raise ValueError("t_end must be given (a finite number > t_start)")
+    t_end = check_real(t_end, "t_end")
+    if t_end <= t_start:
+        raise ValueError(f"t_end must be > t_start = {t_start}, got {t_end}")
+    if t_eval is None:
+        return t_start, t_end, np.empty(0)
+    t_eval = np.sort(check_array(t_eval, "t_eval", ndim=1))
+    if t_eval.size and (t_eval[0] < t_start or t_eval[-1] > t_end):
+        raise ValueError(f"t_eval must lie in [t_start, t_end] = [{t_start}, {t_end}]")
+    return t_start, t_end, t_eval
+
+
+def stack_samples(samples, n):
+    """Stack ``(t, w, zeta)`` output samples into arrays of shapes (k,), (k, n), (k, n)."""
+    if not samples:
+        return np.empty(0), np.empty((0, n)), np.empty((0, n))
+    return (np.array([s[0] for s in samples]), np.array([s[1] for s in samples]),
+            np.array([s[2] for s in samples]))

@@ -1,0 +1,42 @@
+"""Physical checks of the single-contact assumption on a TPS solution."""
+import math
+
+import numpy as np
+
+from .._result import Bunch
+from ..contact import contact_times
+
+__all__ = ["physical_checks"]
+
+
+def physical_checks(sol, n_times=None):
+    """Checks of the single-contact assumption on the TPS output (DESIGN hazard 3)."""
+    T, N, M = sol.period, sol.N, sol.M
+    n_times = n_times or max(64 * N, 2048)
+    t = np.linspace(0.0, T, n_times, endpoint=False)
+    zeta = sol.height(t)                                     # (n_times, n_nodes)
+    scale = max(1.0, float(np.max(np.abs(zeta))))
+    min_zeta = float(np.min(zeta))
+    # contacts: local minima of zeta (periodic) that come within tol of the plate
+    tol_contact = 1e-2 * scale
+    zp, zm = np.roll(zeta, -1, axis=0), np.roll(zeta, 1, axis=0)
+    is_min = (zeta <= zp) & (zeta < zm) & (zeta < tol_contact)
+    contacts = np.sum(is_min, axis=0)
+    # tc is the steep up-crossing selected by the independent rule?
+    sel = contact_times(sol.w_hat, M, -math.cos(sol.t0))
+    dt = np.abs(np.mod(sel.tc - sol.tc + T / 2, T) - T / 2)
+    steep = sel.ok & (dt < 1e-6 * T)
+    # measured jump from the top harmonics: 2 pi i n w_n e^{i n alpha tc} -> T/Gamma for a clean jump
+    n = np.arange(1, N + 1)
+    top = n >= max(1, N // 2)
+    w_pos = sol.w_hat[N + 1:]
+    est = np.real(2j * np.pi * n[:, None] * w_pos * np.exp(1j * np.outer(n / M, sol.tc)))
+    jump_ratio = np.mean(est[top], axis=0) / (T / sol.Gamma)
+    restitution_residual = float(np.max(np.abs(jump_ratio - 1.0)))
+    zeta_ok = min_zeta >= -1e-6 * scale
+    single = bool(np.all(contacts <= 1))
+    return Bunch(
+        min_zeta=min_zeta, zeta_nonnegative=bool(zeta_ok), contacts_per_period=contacts,
+        single_contact=single, tc_is_steep_crossing=steep, selected_tc=sel.tc,
+        jump_ratio=jump_ratio, restitution_residual=restitution_residual,
+        all_pass=bool(zeta_ok and single and np.all(steep) and restitution_residual < 0.1))

@@ -1,0 +1,381 @@
+r"""The spectral time-periodic solver (TPS) for kinks and oscillons.
+
+Implements Sec. 4.1 of Goddard & Didwania: the Fourier series (38)-(39) in time
+(convention in :mod:`tps_solver.harmonics`), one complex Helmholtz problem (45)
+per harmonic solved by the Green's-function quadrature (48)-(50)
+(:class:`~tps_solver.helmholtz.HelmholtzSolver`), the contact condition (46) and
+the height reconstruction (40).
+
+Formulation
+-----------
+The unknown is the contact time :math:`t_c(r_j)` at every node.  Given
+:math:`t_c`, (45) with right-hand side
+:math:`q_n(r) = -\Gamma^{-1} e^{-i n\alpha t_c(r)} - \hat g_n` fixes
+:math:`\hat w_n(r)` for :math:`n = 1..N` (:math:`\hat w_0 = 0` by (39), and the
+:math:`n = 0` balance (44) makes the impulse :math:`T/\Gamma` the same at every
+node).  The contact condition (46) is imposed *at the node's own contact time*:
+
+.. math:: F_j(t_c) = \sum_{|n| \le N} \hat w_n(r_j)\, e^{i n\alpha t_c(r_j)} + \cos t_0 = 0 .
+
+Because the symmetric partial sum of a node's own sawtooth vanishes exactly at
+its own jump, :math:`F` is a smooth function of :math:`t_c` with an O(1)
+Jacobian (for the flat layer :math:`F = \cos t_0 - \cos t_c`), so no root of
+the degree-2N contact polynomial has to be *selected* inside the iteration.
+Whether the converged :math:`t_c(r_j)` really is the steep up-crossing of the
+jump (the paper's root-selection problem, DESIGN hazard 1) is then checked
+independently with :func:`~tps_solver.contact.contact_times` and reported.
+
+Schemes
+-------
+``"newton"`` (default)
+    Newton's method on :math:`F(t_c) = 0` with GMRES and an analytic
+    Jacobian-vector product (one Helmholtz solve per product), backtracking
+    line search on :math:`\|F\|`.
+``"picard"``
+    :math:`t_c^{k} = C(\hat w(t_c^{k-1}))`, where :math:`C` selects the steep
+    up-crossing of (46) (the plain fixed point of DESIGN hazard 3).  For
+    weakly coupled nodes it contracts linearly at
+    :math:`\rho = (2N/\Gamma)/(2N/\Gamma + \sin t_0) = 1 - O(1/N)` (linearise
+    :math:`J s_N(t - t_c) - \cos t = -\cos t_0`): the more harmonics, the
+    slower -- the "steady drift" seen by the paper and the DESIGN prototype.
+``"paper"``
+    The paper's incremental scheme (47) with :math:`Q^k = \sigma Q^{k-1}`,
+    ``paper_sign`` :math:`\sigma = \pm 1`, and :math:`t_c^k` from (46).  With
+    :math:`\sigma = +1` it reproduces :math:`\hat w^k = \hat w(t_c^{k-1})`
+    exactly, i.e. it is the Picard iteration lagged by one sweep.
+
+Geometry
+--------
+*Kink* (planar): the symmetry :math:`w(t + T/2, -x) = w(t, x)` makes even
+harmonics even in x (Neumann at 0) and odd harmonics odd (Dirichlet), so only
+:math:`x \ge 0` is solved, with far field the flat layer of phase
+:math:`t_0`; the other side has phase :math:`t_0 + T/2`.  Unknowns sit on the
+staggered nodes :math:`x_j = (j + 1/2) h`; :math:`x = 0` is the symmetry point
+where the layer bounces twice per period.  *Oscillon* (axisymmetric): nodes
+:math:`r_j = j h`, regular at :math:`r = 0`, far field of phase :math:`t_0`.
+Beyond the last node the contact time is the far-field :math:`t_0`.
+"""
+import math
+import time
+
+import numpy as np
+
+from .._checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from ..flat import FlatLayer
+from ..harmonics import centred, evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
+from ..lattice import Lattice
+from .checks import physical_checks
+from .engine import SCHEMES, continuation as run_continuation, fixed_point, newton
+from .problems import ContinuumProblem, LatticeProblem, decoupled_spacing, node_positions
+from .result import PeriodicSolution
+
+__all__ = ["solve_kink", "solve_oscillon", "solve_lattice", "lattice_initial_tc"]
+
+
+def _wrap(tc, T):
+    return np.mod(tc, T)
+
+
+# ----------------------------------------------------------------- front ends
+def _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign):
+    Gamma = check_positive(Gamma, "Gamma")
+    M = check_int(M, "M", minimum=1)
+    if e is None and t0 is None:
+        raise ValueError("e or t0 must be given (e in [0, 1), or t0 with e from (19))")
+    if e is not None:
+        e = check_restitution(e, "e")
+    flat = FlatLayer(Gamma, M, e=e, t0=t0)
+    N = check_int(n_harmonics, "n_harmonics", minimum=1)
+    tol = check_positive(tol, "tol")
+    max_iter = check_int(max_iter, "max_iter", minimum=0)
+    scheme = check_choice(scheme, "scheme", SCHEMES)
+    if paper_sign not in (1, -1):
+        raise ValueError(f"paper_sign must be +1 or -1, got {paper_sign!r}")
+    return flat, N, tol, max_iter, scheme
+
+
+def _initial_tc(tc_initial, x, default):
+    if tc_initial is None:
+        return default
+    if callable(tc_initial):
+        values = tc_initial(x.copy())
+        return check_array(values, "tc_initial", shape=(x.size,))
+    return check_array(tc_initial, "tc_initial", shape=(x.size,))
+
+
+def _grid(length, n_nodes, name_length):
+    length = check_positive(length, name_length)
+    n_nodes = check_int(n_nodes, "n_nodes", minimum=3)
+    return length, n_nodes
+
+
+def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geometry,
+            min_shift, elapsed, path=None, tail_correction=True):
+    T, M = flat.period, flat.M
+    tc = _wrap(tc, T)
+    w_full = centred(w)
+    if isinstance(problem, LatticeProblem):
+        x = problem.x                                # coupling < 1 is reported, nodes unchanged
+    else:
+        x = problem.x / math.sqrt(problem.coupling)  # the nodes of the problem actually solved
+    if isinstance(problem, LatticeProblem):
+        nodes = x.copy()
+    elif geometry == "planar":
+        # mirror.  kink: w_n(-x) = (-1)^n w_n(x), tc(-x) = tc(x) + T/2;  even: w_n(-x) = w_n(x)
+        kink = problem.symmetry == "kink"
+        sign = (-1.0) ** mode_numbers(N) if kink else np.ones(2 * N + 1)
+        nodes = np.concatenate([-x[::-1], x])
+        w_full = np.concatenate([(sign[:, None] * w_full)[:, ::-1], w_full], axis=1)
+        tc = np.concatenate([_wrap(tc[::-1] + (T / 2 if kink else 0.0), T), tc])
+    else:
+        nodes = x.copy()
+    # zeta_hat by (39)-(40): zeta_n = w_n/(i n alpha), zeta_0 = -sum_{n != 0} zeta_n e^{i n alpha tc}
+    n = mode_numbers(N)
+    nz = n != 0
+    zeta_hat = height_from_velocity(w_full, M)
+    zeta_hat[N] = -np.real(np.sum(zeta_hat[nz] * np.exp(1j * np.outer(n[nz] / M, tc)), axis=0))
+    if tail_correction:
+        # (40) for the corrected series: zeta(tc) = 0 including the closed-form tail of the own jump
+        J = T / flat.Gamma
+        zeta_hat[N] -= J * float(sawtooth(0.0, M, "height") - evaluate(
+            sawtooth_hat(N, M, [0.0], "height"), [0.0], M)[0, 0])
+    sol = PeriodicSolution(
+        converged=status == 0, success=status == 0, status=status, message=message, nit=nit,
+        residual=history[-1], residual_history=np.asarray(history), geometry=geometry,
+        nodes=nodes, tc=tc, w_hat=w_full, zeta_hat=zeta_hat, zeta_shift=np.zeros(nodes.size),
+        Gamma=flat.Gamma, e=flat.e, t0=flat.t0, M=M, N=N, period=T, flat=flat,
+        min_shift=False, scheme=scheme, time=elapsed, coupling=problem.coupling,
+        tail_correction=bool(tail_correction),
+        spacing=float(np.min(np.diff(x))), lattice=getattr(problem, "lattice", None),
+        continuation_path=np.asarray(path if path is not None else [], dtype=float).reshape(-1, 3))
+    if min_shift:
+        # the paper's (64)-(65): shift zeta up where its minimum is negative -- a diagnostic, labelled
+        t = np.linspace(0.0, T, max(64 * N, 2048), endpoint=False)
+        zmin = np.min(sol.height(t), axis=0)
+        sol.zeta_shift = np.where(zmin < 0.0, -zmin, 0.0)
+        sol.min_shift = True
+        sol.message += "; zeta min-shifted by (64)-(65) (NOT a solution of the contact problem where shifted)"
+    sol.checks = physical_checks(sol)
+    return sol
+
+
+def _solve(geometry, Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial, default_tc,
+           tol, max_iter, scheme, paper_sign, min_shift, callback, continuation, tail_correction,
+           symmetry="kink"):
+    flat, N, tol, max_iter, scheme = _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter,
+                                                  scheme, paper_sign)
+    if not isinstance(continuation, bool):
+        raise ValueError(f"continuation must be True or False, got {continuation!r}")
+    h = length / (n_nodes - (0.5 if geometry == "planar" else 1.0))
+    x = node_positions(geometry, h, n_nodes)
+    tc = _initial_tc(tc_initial, x, default_tc(x, flat)).astype(float)
+    make = lambda nu: ContinuumProblem(geometry, h, n_nodes, flat, N, coupling=nu, symmetry=symmetry)
+    return _run(make, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback,
+                continuation, tail_correction, geometry)
+
+
+def _run(make_problem, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback,
+         continuation, tail_correction, geometry):
+    """Dispatch to continuation, Newton or a fixed-point scheme, and assemble the solution.
+
+    ``make_problem(coupling)`` builds the discretised problem; under continuation the problem
+    at full coupling is built only if the branch gets there.
+    """
+    if not isinstance(continuation, bool):
+        raise ValueError(f"continuation must be True or False, got {continuation!r}")
+    start = time.perf_counter()
+    path = None
+    nu_start = (h / decoupled_spacing(flat.M)) ** 2
+    if scheme == "newton" and continuation and nu_start < 1.0:
+        *out, path, problem = run_continuation(make_problem, tc, tol, max_iter, nu_start, callback)
+    else:
+        problem = make_problem(1.0)
+        if scheme == "newton":
+            out = newton(problem, tc, tol, max_iter, callback)
+        else:
+            out = fixed_point(problem, tc, tol, max_iter, scheme, paper_sign)
+    elapsed = time.perf_counter() - start
+    return _finish(problem, flat, N, *out, scheme, geometry, min_shift, elapsed, path,
+                   bool(tail_correction))
+
+
+def lattice_initial_tc(lattice, flat, tc_initial, r_core):
+    """Initial contact times on a lattice: the user's, or the kink step / oscillon core guess."""
+    x = np.asarray(lattice.nodes, dtype=float)
+    if tc_initial is not None:
+        return _initial_tc(tc_initial, x, None).astype(float)
+    if flat.M % 2:
+        raise ValueError(f"tc_initial must be given for odd M (got M = {flat.M}): t0 + T/2 is a "
+                         "flat-layer phase only for even M")
+    if lattice.geometry == "planar":
+        return np.where(x >= 0.0, flat.t0, flat.t0 + flat.period / 2)
+    return np.where(x < r_core, flat.t0 + flat.period / 2, flat.t0)
+
+
+def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
+               length=10.0, n_nodes=200, tol=1e-10, max_iter=50, scheme="newton",
+               paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
+               symmetry="kink", callback=None):
+    r"""Time-periodic kink: two flat layers bouncing half a period apart.
+
+    Solves (45)-(46) on :math:`x \ge 0` with the kink symmetry
+    :math:`w(t + T/2, -x) = w(t, x)` (see the module docstring) and returns
+    the full line.
+
+    Parameters
+    ----------
+    Gamma : float
+        Plate acceleration.
+    M : int
+        Subharmonic order (M = 2 is f/2).
+    e, t0 : float or None
+        Restitution or far-field launch phase (one of them; (19) gives the
+        other).  Default: the paper preset ``t0 = 0``.  Pass ``t0=None,
+        e=0.45`` for the stable-interior preset.
+    n_harmonics : int
+        Truncation N of the Fourier series (38)-(39).
+    tc_initial : None, array_like of float (n_nodes,), or callable
+        Initial contact times on the solved nodes ``x > 0``.  ``None``: the
+        step guess ``tc = t0`` (with the mirrored side at ``t0 + T/2``).
+        A callable receives the node coordinates.
+    length : float, keyword-only
+        Half-width L of the computational domain; beyond it tc = t0.
+    n_nodes : int, keyword-only
+        Nodes on the half-line (x_j = (j + 1/2) h).
+    tol : float
+        Target for max_j |F_j| (contact condition (46)).
+    max_iter : int
+    scheme : {"newton", "picard", "paper"}
+    paper_sign : {1, -1}
+        Sign sigma in the paper's extrapolation Q^k = sigma Q^{k-1} (scheme "paper").
+    min_shift : bool
+        Apply the paper's min-shift (64)-(65) to zeta afterwards (diagnostic;
+        labelled in ``message``).
+    continuation : bool
+        Follow the solution branch from the decoupled limit (coupling
+        :math:`\nu_c \to 0`, where the initial step pattern is exact) to full
+        coupling (used with scheme "newton"; ignored otherwise).  If the branch ends at a fold first,
+        the result has ``converged=False``, ``status=4`` and holds the last
+        converged solution on stretched nodes (``coupling < 1``).
+    tail_correction : bool
+        Evaluate each node's own jump (size T/Gamma at tc) in closed form in
+        ``velocity``/``height`` and in (40) (see :mod:`tps_solver.harmonics`).
+    symmetry : {"kink", "even"}
+        ``"kink"``: w(t + T/2, -x) = w(t, x) (the two far fields half a period
+        apart); ``"even"``: w(t, -x) = w(t, x) (e.g. a flat layer or a stripe).
+    callback : callable, optional
+        ``callback(iteration, tc, residual)`` after each Newton step.
+
+    Returns
+    -------
+    PeriodicSolution
+
+    Examples
+    --------
+    >>> sol = solve_kink(Gamma=2.5, e=0.45, t0=None, n_harmonics=8, n_nodes=40, length=5.0)
+    >>> sol.nodes.shape, sol.w_hat.shape
+    ((80,), (17, 80))
+    """
+    length, n_nodes = _grid(length, n_nodes, "length")
+    if symmetry == "kink" and check_int(M, "M", minimum=1) % 2:
+        raise ValueError(f"M must be even for a kink (got M = {M}): the half-period shift t0 + T/2 "
+                         "is a flat-layer phase only for even M")
+    return _solve("planar", Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial,
+                  lambda x, fl: np.full(x.size, fl.t0), tol, max_iter, scheme, paper_sign,
+                  min_shift, callback, continuation, tail_correction,
+                  check_choice(symmetry, "symmetry", ("kink", "even")))
+
+
+def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
+                   r_max=10.0, n_nodes=200, r_core=1.0, tol=1e-10, max_iter=50,
+                   scheme="newton", paper_sign=1, min_shift=False, continuation=True,
+                   tail_correction=True, callback=None):
+    r"""Time-periodic axisymmetric oscillon in a flat layer of phase t0.
+
+    Parameters
+    ----------
+    Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign, min_shift, continuation, tail_correction, callback
+        As in :func:`solve_kink`.
+    tc_initial : None, array_like of float (n_nodes,), or callable
+        ``None``: the step guess ``tc = t0 + T/2`` for ``r < r_core`` and
+        ``t0`` outside.
+    r_max : float, keyword-only
+        Radius of the computational domain; beyond it tc = t0.
+    n_nodes : int, keyword-only
+        Nodes ``r_j = j h``, ``h = r_max/(n_nodes - 1)``.
+    r_core : float, keyword-only
+        Core radius of the default initial guess.
+
+    Returns
+    -------
+    PeriodicSolution
+
+    Examples
+    --------
+    >>> sol = solve_oscillon(Gamma=2.5, e=0.45, t0=None, n_harmonics=8, n_nodes=40, r_max=5.0)
+    >>> float(sol.nodes[0]), sol.w_hat.shape
+    (0.0, (17, 40))
+    """
+    r_max, n_nodes = _grid(r_max, n_nodes, "r_max")
+    r_core = check_real(r_core, "r_core")
+    if not 0.0 <= r_core < r_max:
+        raise ValueError(f"r_core must be in [0, r_max) = [0, {r_max}), got {r_core}")
+    if tc_initial is None and check_int(M, "M", minimum=1) % 2:
+        raise ValueError(f"tc_initial must be given for odd M (got M = {M}): the core phase t0 + T/2 "
+                         "is a flat-layer phase only for even M")
+    return _solve("axisymmetric", Gamma, M, e, t0, n_harmonics, r_max, n_nodes, tc_initial,
+                  lambda x, fl: np.where(x < r_core, fl.t0 + fl.period / 2, fl.t0), tol, max_iter,
+                  scheme, paper_sign, min_shift, callback, continuation, tail_correction)
+
+
+def solve_lattice(lattice, Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
+                  r_core=1.0, tol=1e-10, max_iter=50, scheme="newton", paper_sign=1,
+                  min_shift=False, continuation=True, tail_correction=True, callback=None):
+    r"""The TPS on an FDA lattice: time-periodic orbits of the FDA's own discrete model.
+
+    Replaces the continuum Laplacian in (45) by the lattice operator of (52)-(53)
+    (:class:`~tps_solver.helmholtz.lattice.LatticeHelmholtz`).  A converged
+    solution is an exact periodic orbit of the lattice with one contact per node
+    and period, so :func:`~tps_solver.check_stability` can integrate it on the
+    same lattice with no discretisation mismatch (its defects measure only the
+    truncation in N).
+
+    Parameters
+    ----------
+    lattice : tps_solver.fda.Lattice
+        The FDA lattice (planar: the full line, Neumann or pinned ends;
+        axisymmetric: uniform or quasilog grid).
+    Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign, min_shift, continuation, tail_correction, callback
+        As in :func:`solve_kink`.
+    tc_initial : None, array_like of float (n_nodes,), or callable
+        ``None``: planar -- the kink step ``t0`` for ``x >= 0`` and ``t0 + T/2``
+        for ``x < 0``; axisymmetric -- ``t0 + T/2`` for ``r < r_core``, ``t0``
+        outside.  Both need an even ``M`` (only then is ``t0 + T/2`` a flat-layer
+        phase).
+    r_core : float, keyword-only
+        Core radius of the axisymmetric default guess.
+
+    Returns
+    -------
+    PeriodicSolution
+        With ``lattice`` set and ``nodes = lattice.nodes``.  Under continuation,
+        a branch that ends first is reported with ``status=4`` and the coupling
+        reached (the lattice operator scaled by ``coupling``).
+
+    Examples
+    --------
+    >>> from tps_solver.fda import Lattice
+    >>> lat = Lattice.planar(n_nodes=8, length=140.0)
+    >>> sol = solve_lattice(lat, Gamma=2.5, M=2, e=0.45, t0=None, n_harmonics=8)
+    >>> sol.converged, sol.nodes.shape
+    (True, (8,))
+    """
+    if not isinstance(lattice, Lattice):
+        raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
+    flat, N, tol, max_iter, scheme = _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter,
+                                                  scheme, paper_sign)
+    r_core = check_real(r_core, "r_core")
+    tc = lattice_initial_tc(lattice, flat, tc_initial, r_core)
+    return _run(lambda nu: LatticeProblem(lattice, flat, N, coupling=nu), float(lattice.spacing),
+                flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback, continuation,
+                tail_correction, lattice.geometry)
