@@ -1,4 +1,4 @@
-"""The shared argument checks of ``tps_solver._checks`` (issue 2)."""
+"""The shared argument checks of ``tps_solver._checks``."""
 import math
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""``tps-solver flat`` (issue 2): subprocess runs, parsed numbers compared with FlatLayer."""
+"""``tps-solver flat``: subprocess runs, parsed numbers compared with FlatLayer."""
 import os
 import re
 import subprocess

@@ -1,4 +1,4 @@
-"""Tests of the cut-off study (issue 6): grid-scale instability of point impacts, regularised models."""
+"""Tests of the cut-off study: grid-scale instability of point impacts, regularised models."""
 import math
 
 import mpmath
@@ -27,7 +27,7 @@ def flat():
 
 # --------------------------------------------------------- the plain lattice is ill-posed
 def test_point_impact_growth_increases_under_refinement():
-    """DESIGN hazard 8: growth per period rises as dx falls (1.6, 0.53, 0.27) and exceeds 1 on fine grids."""
+    """hazard 8 of docs/design.md: growth per period rises as dx falls (1.6, 0.53, 0.27) and exceeds 1 on fine grids."""
     rows = fast_plain()
     g = np.array([r["growth"] for r in rows])
     dx = np.array([r["dx"] for r in rows])

@@ -1,4 +1,4 @@
-"""Acceptance tests of FlatLayer, eqs. (17)-(19) (issue 2).
+"""Acceptance tests of FlatLayer, eqs. (17)-(19).
 
 References are independent of ``tps_solver.flat``'s code paths (see
 ``validation/flat_layer_analytics.py``): the paper's first form of (18), an ODE
@@ -164,7 +164,7 @@ def test_paper_preset_sits_at_the_fold(flat_factory):
     s = 2 Gamma / T = 5 / (4 pi), e = (1-s)/(1+s) = 0.43073..., and cos t0 = 1 is the fold
     of the flat orbit: the two branches t0 = +-arccos(sT/2Gamma) merge and one Floquet
     multiplier equals +1 (the other is det J / 1 = e^2).  The preset is therefore only
-    marginally stable; e = 0.45 is the interior stable choice (hazard 6 of DESIGN.md)."""
+    marginally stable; e = 0.45 is the interior stable choice (hazard 6 of docs/design.md)."""
     fl = flat_factory(Gamma=2.5, M=2, t0=0.0)
     mpmath.mp.dps = 30
     s = mpmath.mpf(5) / (4 * mpmath.pi)

@@ -1,4 +1,4 @@
-"""Fourier convention, forcing harmonics and the flat layer's closed-form coefficients (issue 2).
+"""Fourier convention, forcing harmonics and the flat layer's closed-form coefficients.
 
 References: QUADPACK oscillatory quadrature of the paper's (17)-(18) (first form), a direct
 double loop for the synthesis, and fitted convergence slopes of partial sums.

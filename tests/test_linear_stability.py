@@ -1,4 +1,4 @@
-"""Acceptance tests of the flat-layer linear stability, eqs. (28)-(35) (issue 3).
+"""Acceptance tests of the flat-layer linear stability, eqs. (28)-(35).
 
 References independent of the secular root finder: the Chebyshev discretisation of
 (28)-(29) (never uses (35)), an mpmath shooting determinant built from the matrix

@@ -52,7 +52,7 @@ def test_unstable_branch_is_reported_unstable():
 
 
 def test_period_map_of_flat_lattice_is_not_differentiable():
-    # hazard 7: +h and -h on one node change the impact order, one-sided Jacobians differ
+    # hazard 7 of docs/design.md: +h and -h on one node change the impact order, one-sided Jacobians differ
     fl = tps.FlatLayer(Gamma=GAMMA, M=M, e=E)
     chk = tps.check_stability(fl, periods=2, n_nodes=4, length=3.0, jacobian=True)
     assert chk.differentiable is False

@@ -1,4 +1,4 @@
-"""Tests of the spectral time-periodic solver (tps_solver.tps), issue 7 acceptance."""
+"""Tests of the spectral time-periodic solver (tps_solver.tps)."""
 import math
 
 import numpy as np

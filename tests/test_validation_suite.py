@@ -1,7 +1,7 @@
-"""The validation suite (issue 5): its functions in a fast configuration, asserted on their numbers.
+"""The validation suite: its functions in a fast configuration, asserted on their numbers.
 
 Tolerances are those of the underlying issues: the TPS reproduces the flat
-layer to <= 1e-10 in tc and <= 1e-12 in the harmonics (issue 4/TPS); the FDA
+layer to <= 1e-10 in tc and <= 1e-12 in the harmonics ; the FDA
 flat lattice reproduces (17)-(19) to <= 1e-10 (exact) / <= 1e-8 (ode) with
 contact times to <= 1e-12 (exact), and its uniform-mode multipliers equal
 ``FlatLayer.floquet_multipliers`` to <= 1e-7 (FDA issue).  No wall-clock

@@ -40,7 +40,7 @@ closed form; adding :math:`J\,[s - s_N](t - t_c)` to a truncated velocity
 series (and :math:`J\,[Z - Z_N]` to the height) removes the Gibbs error of the
 node's own jump, so the flat layer is reproduced exactly for every N >= M.
 Note :math:`s_N(0) = 0 = s(0^\pm)` averaged: the symmetric partial sum
-already gives the jump's mean exactly at the jump (DESIGN hazard 1).
+already gives the jump's mean exactly at the jump (docs/design.md, hazard 1).
 """
 import numpy as np
 

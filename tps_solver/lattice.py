@@ -77,7 +77,7 @@ class Lattice:
     autonomous : ndarray of bool, shape (n_nodes,)
         True at pinned ends.
     spacing : float
-        The smallest node spacing -- the grid's cut-off length (hazard 8).
+        The smallest node spacing -- the grid's cut-off length (docs/design.md, hazard 8).
 
     Examples
     --------

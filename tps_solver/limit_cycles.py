@@ -15,7 +15,7 @@ What is measured
   fitted by :math:`d_k \propto \rho^k` over the second half of the linear window
   (the periods before :math:`d_k` first exceeds ``saturation``);
   :math:`\rho` is the growth factor per period (< 1: stable).
-* **multipliers** (hazard 7).  The period map is only piecewise smooth: where
+* **multipliers** (docs/design.md, hazard 7).  The period map is only piecewise smooth: where
   several nodes touch the plate (nearly) together, a perturbation changes the
   *order* of their impacts, and the coupling makes the result depend on that
   order.  Multipliers are therefore reported only where the map is shown to be
@@ -35,7 +35,7 @@ What is measured
 
 * **verdict** -- ``stable`` is True when the measured growth factor is below 1
   and the last defect is below ``defect_tol``; the message states the lattice
-  cut-off in force (hazard 8): a verdict on a lattice with point impacts is a
+  cut-off in force (docs/design.md, hazard 8): a verdict on a lattice with point impacts is a
   verdict for that lattice spacing, not a converged statement.
 """
 import math
@@ -213,7 +213,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     perturbation : float
         Size of the random zero-mean perturbation relative to max(1, |w|, zeta), > 0.  It must
         exceed the simultaneity window ``time_tol`` times the impact speed by a wide margin, or
-        the perturbed contacts are merged into one set and the impact-order effect of hazard 7
+        the perturbed contacts are merged into one set and the impact-order effect of hazard 7 of docs/design.md
         is regularised away (a note is added to the message).
     seed : int
         Seed of the perturbation.
@@ -356,7 +356,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
             multipliers, kind = mu[np.argsort(-np.abs(mu), kind="stable")], "full period map"
         else:
             notes.append(f"period map not differentiable at the orbit: one-sided Jacobians differ by "
-                         f"{gap:.3g} (largest entry {big:.3g}); impact order matters (hazard 7)")
+                         f"{gap:.3g} (largest entry {big:.3g}); impact order matters (docs/design.md, hazard 7)")
 
     cutoff = dict(ref.cutoff)
     if cutoff["kind"] == "lattice spacing":

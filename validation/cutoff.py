@@ -1,4 +1,4 @@
-"""Well-posedness of the impacting lattice and an explicit cut-off length (issue 6, DESIGN hazards 7-8).
+"""Well-posedness of the impacting lattice and an explicit cut-off length (docs/design.md, hazards 7-8).
 
 What is measured
 ----------------
@@ -8,7 +8,7 @@ What is measured
   integrated, the distance ``d = max_i max(|dw_i|, |dzeta_i|)`` is recorded and
   the difference is scaled back to ``amplitude``.  The growth factor is the
   geometric mean of ``d / amplitude`` over the periods after ``discard``.
-  Because the point-impact period map is piecewise linear (hazard 7) the
+  Because the point-impact period map is piecewise linear (docs/design.md, hazard 7) the
   renormalisation keeps the measurement in the regime where it is
   amplitude-independent; :func:`amplitude_check` verifies that.
 * :func:`plain_study` -- that growth factor against the lattice spacing for

@@ -1,4 +1,4 @@
-"""FDA validation and benchmarks (issue 4): speed and contact-time error, hazard 8, kink runs.
+"""FDA validation and benchmarks: speed and contact-time error, grid-scale growth (docs/design.md, hazard 8), kink runs.
 
 Run ``python validation/fda_benchmark.py`` (a few minutes); the functions return
 their numbers so tests can assert on them.
@@ -6,7 +6,7 @@ their numbers so tests can assert on them.
 * :func:`flat_radial_benchmark` -- exact vs ode on a 200-node quasi-log radial
   lattice carrying the flat layer: wall time per period, contact-time error
   against :class:`~tps_solver.FlatLayer` (exact reference), state error.
-* :func:`growth_vs_dx` -- hazard 8: per-period growth of a small zero-mean
+* :func:`growth_vs_dx` -- hazard 8 of docs/design.md: per-period growth of a small zero-mean
   perturbation of the stable flat layer on a planar Neumann lattice of length 8,
   against the lattice spacing, both integrators.
 * :func:`kink_runs` -- the paper's kink initial condition on pinned 41/81-node
@@ -141,7 +141,7 @@ def _figure(rows, path):
     ax.set_yscale("log")
     ax.set_xlabel("lattice spacing dx")
     ax.set_ylabel("growth factor per period")
-    ax.set_title("hazard 8: flat layer, Gamma=2.5, e=0.45, M=2, L=8")
+    ax.set_title("hazard 8 of docs/design.md: flat layer, Gamma=2.5, e=0.45, M=2, L=8")
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -157,7 +157,7 @@ def main():
     ex = rows[0]["seconds_per_period"]
     print("\nspeed ratio ode/exact: " + ", ".join(
         f"{r['solver']} rtol={r['rtol']:g}: {r['seconds_per_period'] / ex:.0f}x" for r in rows[1:]))
-    print("\n## hazard 8: growth per period vs dx (planar Neumann, length 8, perturbation 1e-7, 8 periods)\n")
+    print("\n## hazard 8 of docs/design.md: growth per period vs dx (planar Neumann, length 8, perturbation 1e-7, 8 periods)\n")
     g = growth_vs_dx()
     print(_table(g, ["n_nodes", "dx", "method", "growth_overall", "growth_fit", "final_distance"]))
     _figure(g, os.path.join(FIGDIR, "fda_growth_vs_dx.png"))

@@ -1,4 +1,4 @@
-"""The paper's Figs. 2, 3, 4, 5, 7 and 8 from our own solutions (issue 5, item 3).
+"""The paper's Figs. 2, 3, 4, 5, 7 and 8 from our own solutions.
 
 * Fig. 2 -- kink elevation zeta(t, x) from the FDA (51)-(54), M = 2: the
   paper's kink initial state (two flat layers half a period apart, pinned
@@ -14,8 +14,8 @@
   measured and printed on the figure.
 * Fig. 8 -- polar snapshots of that FDA oscillon over its last period.
 
-Every FDA figure states its lattice spacing (the cut-off in force, DESIGN
-hazard 8).  Run ``python -m validation.figures`` (a few minutes) to write the
+Every FDA figure states its lattice spacing (the cut-off in force,
+hazard 8 of docs/design.md).  Run ``python -m validation.figures`` (a few minutes) to write the
 PNGs under ``validation/figures/`` and ``validation/sections/figures.md``.
 """
 import math

@@ -1,4 +1,4 @@
-"""The flat layer three ways: ``FlatLayer`` (exact) vs the TPS vs the FDA (issue 5, item 1).
+"""The flat layer three ways: ``FlatLayer`` (exact) vs the TPS vs the FDA.
 
 The flat layer (17)-(19) is the one solution of the full problem known in
 closed form, so every solver must reproduce it:
@@ -352,7 +352,7 @@ def render(result, command="python -m validation.flat_layer"):
         "(best pairing). 'FD of simulate' = central differences (relative step 1e-5) of the FDA period "
         "map of the uniform mode at the section t0 + T/2. 'FDA growth': `check_stability` growth factor "
         "of a 1e-7 random perturbation on the lattice (for TPS rows: the TPS solution's own nodes; a value "
-        "> 1 on a flat solution is the grid-scale instability of DESIGN hazard 8, not a TPS error; measured "
+        "> 1 on a flat solution is the grid-scale instability of hazard 8 of docs/design.md, not a TPS error; measured "
         f"for the TPS oscillon started at t0 and (e, M) in {cfg['tps_stability']} only, over "
         f"{cfg.get('tps_stability_periods', cfg['stability_periods'])} periods, because the check on a kink "
         "lattice of the TPS nodes (120 nodes, pinned) did not finish one check in 4.5 minutes in a trial).",

@@ -1,4 +1,4 @@
-"""Validation and benchmark of the Green's-function Helmholtz solver (issue 7, item 2).
+"""Validation and benchmark of the Green's-function Helmholtz solver.
 
 Measures, for :class:`tps_solver.helmholtz.HelmholtzSolver`:
 

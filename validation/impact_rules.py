@@ -1,7 +1,7 @@
 r"""Instantaneous impact rules with a cut-off length: the candidates that the cut-off study rejects.
 
 With point impacts (54) on a lattice the only length that limits the
-impact-order effect of hazard 7 is the lattice spacing: the column that
+impact-order effect of hazard 7 of docs/design.md is the lattice spacing: the column that
 rebounds first drags its neighbours through a velocity step of the size of the
 impact jump across one spacing, a kick :math:`\propto \nu/\Delta x^2`, and the
 flat layer's response to small perturbations grows without bound under

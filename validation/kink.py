@@ -1,4 +1,4 @@
-"""Kink presets (issue 5): see :mod:`validation.presets`.  Run: python -m validation.kink"""
+"""Kink presets: see :mod:`validation.presets`.  Run: python -m validation.kink"""
 from validation.presets import main as _main
 from validation.presets import study
 

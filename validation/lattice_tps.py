@@ -20,7 +20,7 @@ import numpy as np
 
 import tps_solver as tps
 from tps_solver.fda import simulate
-from validation.tps_branches import _table
+from validation.tps_branches import table4
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SECTION = os.path.join(HERE, "sections", "lattice.md")
@@ -136,21 +136,21 @@ def main():
              "Gamma = 2.5, M = 2, e = 0.45 unless stated; coarse lattices (8 nodes, spacing 20 planar / "
              "20 radial) where single-contact orbits exist.\n",
              "### The FDA integrates the exact TPS cycle (N -> infinity) for one period\n",
-             _table(defect, ["kind", "method", "converged", "defect_zeta", "defect_w", "max_dtc", "impacts",
+             table4(defect, ["kind", "method", "converged", "defect_zeta", "defect_w", "max_dtc", "impacts",
                              "time"]),
              "\n### Spectral lattice TPS against the exact cycle\n"]
     for kind, (rows, slope) in conv.items():
         parts.append(f"**{kind}** (fitted slope of max|dtc| vs N: {slope:.2f}):\n\n"
-                     + _table(rows, ["N", "converged", "dtc", "dzeta", "time"]) + "\n")
+                     + table4(rows, ["N", "converged", "dtc", "dzeta", "time"]) + "\n")
     parts += ["The neighbours' impacts put kinks into w_j (Fourier coefficients ~ 1/n^2), so the truncated "
               "contact condition (46) carries an O(1/N) tail; the exact cycle removes it.\n",
               "### Where the single-contact branch ends on FDA lattices (exact cycles, no truncation)\n",
-              _table(ends, ["case", "preset", "status", "coupling", "effective_spacing", "time"]),
+              table4(ends, ["case", "preset", "status", "coupling", "effective_spacing", "time"]),
               "\nStatus 0: the orbit exists on the lattice as given. Status 4: the branch from the decoupled "
               "limit ends at the coupling shown (a fold); effective spacing = lattice spacing / sqrt(coupling). "
               "Status 2: Newton cannot start even at the decoupled limit (t0 = 0 is the flat orbit's fold).\n",
               "### Stability of the existing cycles (check_stability on their own lattice)\n",
-              _table(stab, ["kind", "method", "stable", "growth", "final_defect", "multipliers", "max_abs_mu",
+              table4(stab, ["kind", "method", "stable", "growth", "final_defect", "multipliers", "max_abs_mu",
                             "differentiable", "time"])]
     text = "\n".join(parts)
     with open(SECTION, "w") as fh:

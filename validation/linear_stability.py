@@ -1,4 +1,4 @@
-"""Validation of the flat-layer linear stability (issue 3): secular equation (35) vs Chebyshev vs shooting.
+"""Validation of the flat-layer linear stability: secular equation (35) vs Chebyshev vs shooting.
 
 Three independent computations of the eigenvalues lam = lambda / k^2 = gamma^2 - 1 of (28)-(29):
 

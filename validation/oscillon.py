@@ -1,4 +1,4 @@
-"""Oscillon presets (issue 5): see :mod:`validation.presets`.  Run: python -m validation.oscillon"""
+"""Oscillon presets: see :mod:`validation.presets`.  Run: python -m validation.oscillon"""
 from validation.presets import main as _main
 from validation.presets import study
 

@@ -1,4 +1,4 @@
-"""Plain statements per preset (issue 5): does a converged single-contact kink/oscillon exist,
+"""Plain statements per preset: does a converged single-contact kink/oscillon exist,
 is it stable in the FDA, do TPS and FDA agree?
 
 For each preset (stable interior e = 0.45; the paper's t0 = 0) and geometry this collects:

@@ -41,7 +41,7 @@ SECTION_ORDER = (
     ("oscillon", "Oscillons"),
     ("fda", "Event-driven FDA, eqs. (51)-(63)"),
     ("lattice", "TPS and FDA on the same lattice"),
-    ("cutoff", "Cut-off length (DESIGN hazard 8)"),
+    ("cutoff", "Cut-off length (docs/design.md, hazard 8)"),
     ("speed", "Speed against error"),
     ("figures", "The paper's figures"),
 )

@@ -1,4 +1,4 @@
-"""Speed against error: the TPS, the FDA integrators, and brute-force time stepping (issue 5, item 4).
+"""Speed against error: the TPS, the FDA integrators, and brute-force time stepping.
 
 Four measurements, each giving (error against a stated reference, median wall
 time over ``repeats`` runs):
@@ -16,7 +16,7 @@ time over ``repeats`` runs):
    (a) one period of a flat lattice against the closed form, (b) one period of
    the paper's kink initial state on pinned lattices of several sizes against
    the exact integrator on the same lattice (the FDA does not converge under
-   grid refinement without a cut-off, DESIGN hazard 8, so no cross-grid
+   grid refinement without a cut-off, hazard 8 of docs/design.md, so no cross-grid
    reference is used).
 4. **Brute force** -- the FDA time-stepped from a perturbed flat state (node j
    lagging the orbit by ``0.05 cos x_j``, the analogue of the TPS start) until
@@ -550,7 +550,7 @@ def render(result, figure=None, command="python -m validation.speed_vs_error"):
     if odd:
         lines.append("**FDA `ode` runs whose error exceeds 1000 x its tolerance** (reported, not explained "
                      "here; on a flat lattice this means the nodes' impacts were not processed as one "
-                     "simultaneous set, so the order effect of DESIGN hazard 7 broke the symmetry):")
+                     "simultaneous set, so the order effect of hazard 7 of docs/design.md broke the symmetry):")
         lines += [f"- {r['problem']}, {r['setting']}: error {r['error']:.3g}" for r in odd]
         lines.append("")
     osc = [r for r in result["rows"] if r["problem"].startswith("oscillon")]
@@ -604,7 +604,7 @@ def render(result, figure=None, command="python -m validation.speed_vs_error"):
         if missing:
             lines.append(f"No speed-up for {len(missing)} (lattice, target) pair(s): the FDA did not return to "
                          "the cycle within the period budget (on fine lattices the flat cycle is unstable at the "
-                         "grid scale, DESIGN hazard 8), or the TPS error exceeded the target.")
+                         "grid scale, hazard 8 of docs/design.md), or the TPS error exceeded the target.")
         lines.append("")
         cycle = result.get("cycle", [])
         if cycle:

@@ -175,7 +175,7 @@ def scheme_benchmark(N_list=(30, 128), spacing=15.0, n_nodes=12, repeats=5):
 
 
 # -------------------------------------------------------------------- output
-def _table(rows, keys):
+def table4(rows, keys):
     """Markdown table of ``rows`` over ``keys`` (:func:`validation.report.markdown_table`), floats to 4 digits."""
     from validation.report import markdown_table
 
@@ -224,7 +224,7 @@ def main():
            f"(this run: {time.perf_counter() - t_start:.0f} s). Units: lengths in viscous lengths "
            "sqrt(nu/omega); Gamma = 2.5, M = 2.\n",
            "### The presets on the default grid (N = 30, 200 nodes, domain 10)\n",
-           _table(presets, ["preset", "geometry", "converged", "status", "coupling", "spacing_requested",
+           table4(presets, ["preset", "geometry", "converged", "status", "coupling", "spacing_requested",
                             "spacing_reached", "nit", "time", "min_zeta", "all_pass"]),
            "\nStatus 4: continuation from the decoupled limit ended before full coupling; the spacing "
            "reached is the smallest node spacing at which a single-contact solution was found. Status 2 "
@@ -233,20 +233,20 @@ def main():
            "### A fold, not a solver failure: smallest singular value along the branch (N = 16, 30 nodes)\n"]
     for g, (rows, hstar) in sv.items():
         out.append(f"**{g}** (branch ends at spacing {hstar:.4g}):\n\n")
-        out.append(_table(rows, ["spacing", "sigma_min", "converged"]))
+        out.append(table4(rows, ["spacing", "sigma_min", "converged"]))
         out.append("\n")
     out.append("### Where the branch ends across the stability window (e = 0.45, N = 16)\n")
     for g, rows in scans.items():
-        out.append(f"**{g}**:\n\n" + _table(rows, ["Gamma", "t0", "max_abs_mu", "status", "fold_spacing"]) + "\n")
+        out.append(f"**{g}**:\n\n" + table4(rows, ["Gamma", "t0", "max_abs_mu", "status", "fold_spacing"]) + "\n")
     out.append("### Fold spacing against N (Gamma = 2.5, e = 0.45)\n")
     for g, rows in foldN.items():
         out.append(f"**{g}**: " + ", ".join(f"N={r['N']}: {r['fold_spacing']:.4g}" for r in rows) + "\n\n")
     out.append("### Convergence in N on the branch (spacing 15, 12 nodes; differences to N = 128)\n")
     for g, (rows, slope) in conv.items():
         out.append(f"**{g}** (fitted slope of max|dtc| vs N: {slope:.2f}):\n\n")
-        out.append(_table(rows, ["N", "dtc", "dzeta", "converged", "all_pass"]) + "\n")
+        out.append(table4(rows, ["N", "dtc", "dzeta", "converged", "all_pass"]) + "\n")
     out.append("### Schemes: iterations and time to max|F| <= 1e-10 (spacing 15, 12 nodes)\n")
-    out.append(_table(bench, ["geometry", "N", "scheme", "converged", "nit", "time", "points"]))
+    out.append(table4(bench, ["geometry", "N", "scheme", "converged", "nit", "time", "points"]))
     out.append("\n`points`: continuation points (Newton only). Newton times are medians of 5 runs.\n")
     out.append(f"\nFigure: `{os.path.relpath(fig, HERE)}`.\n")
     text = "\n".join(out)

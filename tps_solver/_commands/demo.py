@@ -23,7 +23,7 @@ import numpy as np
 NAME = "demo"
 HELP = "Fast demo (< 1 min): flat layer, TPS vs flat layer, small oscillon and kink, FDA check; summary table."
 
-#: Acceptance bounds of the flat-layer reproduction (issues 1, 4 and 5).
+#: Acceptance bounds of the flat-layer reproduction (the flat orbit to round-off in every method).
 TC_TOL = 1e-10
 HARMONIC_TOL = 1e-12
 MULTIPLIER_TOL = 1e-7

@@ -38,7 +38,7 @@ class SimulationResult(Bunch):
     w_eval, zeta_eval : ndarray of float, shape (k, n_nodes)
         States at the requested output times (pre-event values at event instants).
     cutoff : dict
-        The regularisation length in force (hazard 8): ``{"kind", "length"}``.
+        The regularisation length in force (docs/design.md, hazard 8): ``{"kind", "length"}``.
     method : str
     n_steps : int
         Search steps (exact) or solver steps (ode).

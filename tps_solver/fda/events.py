@@ -13,7 +13,7 @@ Rules (stated once, used by ``method="exact"`` and ``method="ode"``):
   :math:`w^+(r) = w^-(r) - (1+e)\sum_{c\in\mathscr P} w^-(r_c)\,e^{-|r-r_c|/\rho_c}`
   on the free nodes (stuck nodes stay stuck).  This is the extension point for
   a regularised impact model with a physical cut-off length.
-* **Sticking (hazard 4).**  A contact node whose impact speed is at most
+* **Sticking (docs/design.md, hazard 4).**  A contact node whose impact speed is at most
   ``stick_velocity`` (a chattering sequence: the remaining bounces of the
   geometric series have heights below ``stick_velocity**2 / (2|a|)``), or whose
   rebound velocity is not positive (``e = 0``), is set to :math:`w = \zeta = 0`;
@@ -87,7 +87,7 @@ def make_impact_rule(impact="point", rho_c=None):
     rule : callable
         ``rule(w_minus, contact, e, lattice, free) -> w_plus``.
     cutoff : dict
-        ``{"kind": ..., "length": ...}``: the cut-off length in force (hazard 8);
+        ``{"kind": ..., "length": ...}``: the cut-off length in force (docs/design.md, hazard 8);
         for point impacts it is the lattice spacing (filled in by the caller).
     """
     if callable(impact):
@@ -110,7 +110,7 @@ def make_impact_rule(impact="point", rho_c=None):
 
 
 class EventLog:
-    """Time-ordered event records with a per-cycle budget (hazard 4)."""
+    """Time-ordered event records with a per-cycle budget (docs/design.md, hazard 4)."""
 
     def __init__(self, t_start, max_events_per_cycle):
         self.records = []

@@ -27,7 +27,7 @@ With stuck nodes :math:`\underline\sigma_F` is no longer a null vector and the
 other modes are forced too; the formula stays exact ("re-decompose the free
 sub-lattice").  Decompositions are cached per free set.
 
-Contact search (hazard 4, 5 and the issue's "cannot step over a double crossing")
+Contact search: certified, it cannot step over a double crossing (docs/design.md, hazards 4-5)
 ----------------------------------------------------------------------------------
 Each candidate event is a function :math:`f_j(t) \ge 0` that ends the flight when
 it reaches zero: :math:`\zeta_j` for a free node (impact) and :math:`-a_j` for a

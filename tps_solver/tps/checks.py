@@ -10,7 +10,7 @@ __all__ = ["physical_checks"]
 
 
 def physical_checks(sol, n_times=None):
-    """Checks of the single-contact assumption on the TPS output (DESIGN hazard 3)."""
+    """Checks of the single-contact assumption on the TPS output (docs/design.md, hazard 3)."""
     T, N, M = sol.period, sol.N, sol.M
     n_times = n_times or max(64 * N, 2048)
     t = np.linspace(0.0, T, n_times, endpoint=False)

@@ -43,7 +43,7 @@ class PeriodicSolution(PeriodicOrbit):
     flat : FlatLayer
         The far-field flat layer.
     checks : Bunch
-        Physical checks (DESIGN hazard 3): ``min_zeta`` (over a fine time grid),
+        Physical checks (docs/design.md, hazard 3): ``min_zeta`` (over a fine time grid),
         ``zeta_nonnegative``, ``contacts_per_period`` (per node), ``single_contact``,
         ``tc_is_steep_crossing`` (per node), ``jump_ratio`` (measured jump of w at
         tc over the restitution jump T/Gamma, from the top harmonics, per node),

@@ -22,7 +22,7 @@ its own jump, :math:`F` is a smooth function of :math:`t_c` with an O(1)
 Jacobian (for the flat layer :math:`F = \cos t_0 - \cos t_c`), so no root of
 the degree-2N contact polynomial has to be *selected* inside the iteration.
 Whether the converged :math:`t_c(r_j)` really is the steep up-crossing of the
-jump (the paper's root-selection problem, DESIGN hazard 1) is then checked
+jump (the paper's root-selection problem, hazard 1 of docs/design.md) is then checked
 independently with :func:`~tps_solver.contact.contact_times` and reported.
 
 Schemes
@@ -33,11 +33,11 @@ Schemes
     line search on :math:`\|F\|`.
 ``"picard"``
     :math:`t_c^{k} = C(\hat w(t_c^{k-1}))`, where :math:`C` selects the steep
-    up-crossing of (46) (the plain fixed point of DESIGN hazard 3).  For
+    up-crossing of (46) (the plain fixed point of hazard 3 of docs/design.md).  For
     weakly coupled nodes it contracts linearly at
     :math:`\rho = (2N/\Gamma)/(2N/\Gamma + \sin t_0) = 1 - O(1/N)` (linearise
     :math:`J s_N(t - t_c) - \cos t = -\cos t_0`): the more harmonics, the
-    slower -- the "steady drift" seen by the paper and the DESIGN prototype.
+    slower -- the "steady drift" seen by the paper and by the prototype of docs/design.md, hazard 3.
 ``"paper"``
     The paper's incremental scheme (47) with :math:`Q^k = \sigma Q^{k-1}`,
     ``paper_sign`` :math:`\sigma = \pm 1`, and :math:`t_c^k` from (46).  With
@@ -213,9 +213,9 @@ def lattice_initial_tc(lattice, flat, tc_initial, r_core):
 
 
 def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
-               length=10.0, n_nodes=200, tol=1e-10, max_iter=50, scheme="newton",
+               half_length=None, n_nodes=200, tol=1e-10, max_iter=50, scheme="newton",
                paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
-               symmetry="kink", callback=None):
+               symmetry="kink", callback=None, length=None):
     r"""Time-periodic kink: two flat layers bouncing half a period apart.
 
     Solves (45)-(46) on :math:`x \ge 0` with the kink symmetry
@@ -238,8 +238,12 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
         Initial contact times on the solved nodes ``x > 0``.  ``None``: the
         step guess ``tc = t0`` (with the mirrored side at ``t0 + T/2``).
         A callable receives the node coordinates.
+    half_length : float, keyword-only
+        Half-width L of the computational domain (x in [-L, L]); beyond it tc = t0.
+        Default 10.
     length : float, keyword-only
-        Half-width L of the computational domain; beyond it tc = t0.
+        The former name of ``half_length`` (kept so existing calls work; give one of the two).
+        Note that ``Lattice.planar(length=...)`` is a *total* length.
     n_nodes : int, keyword-only
         Nodes on the half-line (x_j = (j + 1/2) h).
     tol : float
@@ -272,15 +276,20 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
 
     Examples
     --------
-    >>> sol = solve_kink(Gamma=2.5, e=0.45, t0=None, n_harmonics=8, n_nodes=40, length=5.0)
+    >>> sol = solve_kink(Gamma=2.5, e=0.45, t0=None, n_harmonics=8, n_nodes=40, half_length=5.0)
     >>> sol.nodes.shape, sol.w_hat.shape
     ((80,), (17, 80))
     """
-    length, n_nodes = _grid(length, n_nodes, "length")
+    if half_length is not None and length is not None:
+        raise ValueError(f"give one of half_length and length (its former name), got half_length="
+                         f"{half_length!r} and length={length!r}")
+    name = "length" if length is not None else "half_length"
+    half_length = length if length is not None else (10.0 if half_length is None else half_length)
+    half_length, n_nodes = _grid(half_length, n_nodes, name)
     if symmetry == "kink" and check_int(M, "M", minimum=1) % 2:
         raise ValueError(f"M must be even for a kink (got M = {M}): the half-period shift t0 + T/2 "
                          "is a flat-layer phase only for even M")
-    return _solve("planar", Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial,
+    return _solve("planar", Gamma, M, e, t0, n_harmonics, half_length, n_nodes, tc_initial,
                   lambda x, fl: np.full(x.size, fl.t0), tol, max_iter, scheme, paper_sign,
                   min_shift, callback, continuation, tail_correction,
                   check_choice(symmetry, "symmetry", ("kink", "even")))
