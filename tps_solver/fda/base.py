@@ -38,7 +38,7 @@ def _no_nodes():
 
 @dataclass
 class Step:
-    """What one :meth:`Integrator.advance` returns.
+    r"""What one :meth:`Integrator.advance` returns.
 
     Attributes
     ----------
