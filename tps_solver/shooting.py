@@ -381,12 +381,13 @@ def _choose_section(pmap_factory, w, z, stuck, t_g, T, method, n_grid=512):
 
 
 def _fit_growth(dist, saturation=1e-3):
-    """Per-period growth factor: log-linear fit over the second half of the linear window."""
+    """Per-period growth factor: log-linear fit over the second half of the linear window
+    (the periods before ``dist`` first exceeds ``saturation``), as in check_stability."""
     over = np.flatnonzero(~(dist < saturation))
     k1 = (int(over[0]) - 1) if over.size else dist.size - 1
     if k1 < 1:
         return float("nan")
-    k0 = k1 // 2 if k1 // 2 < k1 else 0
+    k0 = max(1, k1 // 2) if k1 - max(1, k1 // 2) >= 1 else 0
     ks = np.arange(k0, k1 + 1)
     d = dist[ks]
     if np.any(d <= 0):
@@ -788,19 +789,26 @@ def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, d
                      "mode (e.g. the front position); I - J is ill-conditioned along it")
 
 
-def _growth(pm, x, periods, size=1e-8, saturation=1e-3):
-    """Growth per period of a random zero-mean perturbation of relative size ``size``."""
-    rng = np.random.default_rng(0)
+def _growth(pm, x, periods, size=1e-8, saturation=1e-3, seed=0):
+    """Growth per period of a random zero-mean perturbation of relative size ``size``.
+
+    The protocol of :func:`~tps_solver.check_stability`: zero-mean normal perturbations of the
+    free nodes' w and zeta, each scaled to ``size * max(1, max|w|, max zeta)``, followed next to
+    the reference run; the distance is fitted on the linear window.
+    """
+    rng = np.random.default_rng(seed)
     m = pm.m
-    scale = size * max(1.0, float(np.max(np.abs(x), initial=0.0)))
-    dv = rng.standard_normal(2 * m)
-    dv[:m] -= dv[:m].mean()
-    dv[m:] -= dv[m:].mean()
-    dv *= scale / np.max(np.abs(dv))
+    scale = size * max(1.0, float(np.max(np.abs(x[:m]), initial=0.0)), float(np.max(x[m:], initial=0.0)))
+    dw = rng.standard_normal(m)
+    dz = rng.standard_normal(m)
+    dw -= dw.mean()
+    dz -= dz.mean()
+    dw *= scale / np.max(np.abs(dw))
+    dz *= scale / np.max(np.abs(dz))
     t_eval = pm.t_s + pm.T * np.arange(periods + 1)
     ref = pm.run(x, periods=periods, t_eval=t_eval)
-    per = pm.run(x + dv, periods=periods, t_eval=t_eval)
+    per = pm.run(x + np.concatenate((dw, dz)), periods=periods, t_eval=t_eval)
     k = min(ref.w_eval.shape[0], per.w_eval.shape[0])
-    dist = np.maximum(np.max(np.abs(per.w_eval[:k] - ref.w_eval[:k]), axis=1),
-                      np.max(np.abs(per.zeta_eval[:k] - ref.zeta_eval[:k]), axis=1))
+    dist = np.maximum(np.max(np.abs(per.zeta_eval[:k] - ref.zeta_eval[:k]), axis=1),
+                      np.max(np.abs(per.w_eval[:k] - ref.w_eval[:k]), axis=1))
     return _fit_growth(dist, saturation)
