@@ -347,28 +347,28 @@ class FlatLayer:
 
     @property
     def contact_sequence(self):
-        """The landings of one period as letters: "B" rebound (e > 0), "T" touch-and-go,
-        "S" stick (a landing to rest, or a chatter sequence accumulating to rest).
+        """The landings of one period as letters.
+
+        "B" a rebound (e > 0), "T" a touch-and-go (e = 0, g > 0 at the
+        landing), "S" a landing to rest (e = 0, g <= 0), "C" a chatter
+        sequence accumulating to rest (e > 0): the impacts from the last one
+        after which all impacts happen at g < 0 with decreasing rebound speeds
+        (so the letter count does not depend on how many bounces are resolved
+        before the tail is summed).  The single-bounce orbit is "B" ("T" if
+        e = 0).
 
         Returns
         -------
         sequence : str
+
+        Examples
+        --------
+        >>> FlatLayer(4.1, e=0.0).contact_sequence, FlatLayer(4.4, e=0.1, pattern="stick").contact_sequence
+        ('TS', 'BC')
         """
         if self._orbit is None:
             return "B" if self.e > 0.0 else "T"
-        out, prev = [], None
-        for t, kind in self._orbit.events:
-            if kind == "impact":
-                out.append("B")
-            elif kind == "liftoff" and prev == "impact":
-                out[-1] = "T"
-            elif kind == "stick":
-                if prev == "impact" and self.e == 0.0:
-                    out[-1] = "S"
-                else:
-                    out.append("S")
-            prev = kind
-        return "".join(out)
+        return self._orbit.contact_sequence()
 
     @property
     def chatter_error(self):

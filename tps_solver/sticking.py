@@ -139,7 +139,7 @@ def _monotone_pieces(fl, H):
     for p, q in zip(breaks[:-1], breaks[1:]):
         wp, wq = fl.w(p), fl.w(q)
         if wp * wq < 0.0:
-            c = brentq(fl.w, p, q, xtol=1e-300, rtol=_RTOL)
+            c = brentq(fl.w, p, q, xtol=1e-300, rtol=_RTOL, maxiter=1000)
             pieces.extend([(p, c), (c, q)])
         else:
             pieces.append((p, q))
@@ -161,7 +161,7 @@ def _first_landing(fl, H):
         if zq <= 0.0:
             if zq == 0.0:
                 return q
-            tau = brentq(fl.z_over_tau, p, q, xtol=1e-300, rtol=_RTOL)
+            tau = brentq(fl.z_over_tau, p, q, xtol=1e-300, rtol=_RTOL, maxiter=1000)
             for _ in range(3):  # safeguarded Newton polish on zeta
                 d = fl.w(tau)
                 if d == 0.0:
@@ -312,6 +312,23 @@ class ContactOrbit:
         self.harmonic_tail_bound = sum(2.0 * s[3][0] ** 2 / (s[3][1] * (1.0 - s[3][2] ** 2))
                                        for s in tails) / self.period
         self._starts = np.array([s[1] for s in segments])
+
+    def contact_sequence(self):
+        """Landings of one period as letters (see :attr:`tps_solver.FlatLayer.contact_sequence`)."""
+        flights = [s for s in self.segments if s[0] == "flight"]
+        if self.pattern == "touch":
+            return "T" * len(flights)
+        if self.e == 0.0:
+            return "T" * (len(flights) - 1) + "S"
+        # impact i ends flight i; its rebound speed launches flight i + 1 (or the summed tail)
+        times = [s[2] for s in flights]
+        rebound = [s[3] for s in flights[1:]]
+        tail = [s for s in self.segments if s[0] == "tail"]
+        rebound.append(tail[0][3][0] if tail else 0.0)
+        j = len(times) - 1
+        while (j > 0 and gravity(times[j - 1], self.Gamma) < 0.0 and rebound[j - 1] > rebound[j]):
+            j -= 1
+        return "B" * j + "C"
 
     # ------------------------------------------------------------------ evaluation
     def _wrap(self, t):
@@ -497,7 +514,8 @@ def touch_orbits(Gamma, M, n_scan=160):
     r"""All touch-and-go orbits (e = 0, no stick) of minimal period 2 pi M found by a scan.
 
     The launch phase :math:`\varphi` is scanned over the take-off window
-    :math:`g > 0` on ``n_scan`` points; a root of
+    :math:`g > 0` on ``n_scan`` uniform points plus points geometrically
+    close to both ends (down to 1e-12 of the window); a root of
     :math:`F_j(\varphi) = t_j(\varphi) - \varphi - 2\pi M` (:math:`t_j` the
     j-th landing) bracketed by a sign change is refined by ``brentq`` and kept
     if :math:`|F_j| < 10^{-9}` there (rejecting jumps of the landing map at
@@ -521,7 +539,10 @@ def touch_orbits(Gamma, M, n_scan=160):
     base = math.asin(1.0 / Gamma)
     T = _TWO_PI * M
     lo, hi = base, math.pi - base
-    grid = lo + (hi - lo) * (np.arange(n_scan) + 0.5) / n_scan
+    edge = (hi - lo) * 10.0 ** -np.arange(3.0, 13.0)   # orbits close to g = 0 at a contact
+    grid = np.unique(np.concatenate([lo + (hi - lo) * (np.arange(n_scan) + 0.5) / n_scan,
+                                     lo + edge, hi - edge]))
+    n_scan = grid.size
 
     def landings(phi):
         return _touch_landings(Gamma, phi, phi + T + math.pi)[0]

@@ -29,8 +29,9 @@ from scipy import integrate
 import tps_solver as tps
 from tps_solver.sticking import sticking_orbit, touch_orbits
 
-__all__ = ["reference_orbit", "reference_height", "reference_velocity", "quad_harmonics",
-           "measure", "accuracy_table", "pattern_scan", "pattern_boundaries", "main"]
+__all__ = ["reference_orbit", "reference_touch_landings", "reference_height", "reference_velocity", "quad_harmonics",
+           "measure", "accuracy_table", "pattern_scan", "pattern_boundaries", "sequence_changes",
+           "touch_window", "main"]
 
 
 # ----------------------------------------------------------------------------- reference ball
@@ -91,7 +92,7 @@ def _landing(a, v, G, horizon):
     return None
 
 
-def reference_orbit(Gamma, e, M=2, dps=None, v_stop="1e-18"):
+def reference_orbit(Gamma, e, M=2, dps=None, v_stop="1e-18", t_start=None, v_start=0.0):
     r"""One period of the orbit through a lift-off, in mpmath.
 
     Parameters
@@ -104,6 +105,9 @@ def reference_orbit(Gamma, e, M=2, dps=None, v_stop="1e-18"):
         Working precision (default 30 for ``e = 0``, 50 otherwise).
     v_stop : str
         Rebound speed below which a chatter sequence is summed.
+    t_start, v_start : float, optional
+        Start from a launch at ``t_start`` (default: the lift-off phase) with
+        velocity ``v_start`` (default 0) instead; used to perturb the orbit.
 
     Returns
     -------
@@ -117,10 +121,11 @@ def reference_orbit(Gamma, e, M=2, dps=None, v_stop="1e-18"):
     with mp.workdps(dps):
         G, e_mp = mp.mpf(Gamma), mp.mpf(e)
         base = mp.asin(1 / G)
-        t, v = base, mp.mpf(0)
+        t = base if t_start is None else mp.mpf(t_start)
+        v = mp.mpf(v_start)
         events, flights = [(t, "liftoff")], []
         while True:
-            b = _landing(t, v, G, 2 * mp.pi * (M + 2) - (t - base))
+            b = _landing(t, v, G, 2 * mp.pi * (M + 2) - (t - events[0][0]))
             if b is None:
                 raise RuntimeError("reference: no landing within the horizon")
             flights.append((t, b, v))
@@ -139,6 +144,18 @@ def reference_orbit(Gamma, e, M=2, dps=None, v_stop="1e-18"):
                 events.append((base + 2 * mp.pi * k, "liftoff"))
                 return events, flights
             t = b
+
+
+def reference_touch_landings(Gamma, t_start, n, dps=30):
+    """The first ``n`` landing times of successive flights from rest (e = 0, no stick check), in mpmath."""
+    with mp.workdps(dps):
+        G, t, out = mp.mpf(Gamma), mp.mpf(t_start), []
+        for _ in range(n):
+            t = _landing(t, mp.mpf(0), G, 6 * mp.pi)
+            if t is None:
+                raise RuntimeError("reference: no landing within 3 periods")
+            out.append(t)
+        return out
 
 
 def reference_height(flights, Gamma, t):
@@ -313,6 +330,27 @@ def pattern_boundaries(e, M=2, Gammas=None):
     return out, rows
 
 
+def sequence_changes(e, lo, hi, M=2, n=60):
+    """Gamma values in [lo, hi] where the sticking orbit's contact sequence changes, by bisection.
+
+    Returns
+    -------
+    changes : list of (float, str, str)
+        ``(Gamma, sequence below, sequence above)``.
+    """
+    def seq(G):
+        return tps.FlatLayer(G, M, e=e, pattern="stick").contact_sequence
+
+    grid = np.linspace(lo, hi, n)
+    seqs = [seq(G) for G in grid]
+    out = []
+    for a, b, sa, sb in zip(grid[:-1], grid[1:], seqs[:-1], seqs[1:]):
+        if sa != sb:
+            G = _bisect(lambda x: seq(x) == sa, a, b)
+            out.append((G, sa, sb))
+    return out
+
+
 def touch_window(M=2, lo=3.6, hi=4.0):
     """Gamma range of the touch-and-go f/M orbit (e = 0) near sqrt(pi^2 + 4), by bisection on existence."""
     def exists(G):
@@ -345,12 +383,15 @@ def main():
               f"{_fmt(r['harmonics_err'])} | {_fmt(r['chatter_bound'])} |")
     print()
     print("### Where the sticking f/2 orbit exists (M = 2)\n")
-    print("| e | Gamma low | Gamma high | lift-off orbit period below / above (in 2 pi) |")
-    print("|---|---|---|---|")
+    print("| e | Gamma low | Gamma high | lift-off orbit period below / above (in 2 pi) | "
+          "contact-sequence changes inside |")
+    print("|---|---|---|---|---|")
     for e in (0.0, 0.1):
         ints, _ = pattern_boundaries(e, 2)
         for lo, hi, below, above in ints:
-            print(f"| {e} | {lo:.10f} | {hi:.10f} | {below} / {above} |")
+            ch = sequence_changes(e, lo * (1 + 1e-9), hi * (1 - 1e-9))
+            chs = "; ".join(f"{a} -> {b} at {G:.10f}" for G, a, b in ch) or "none"
+            print(f"| {e} | {lo:.10f} | {hi:.10f} | {below} / {above} | {chs} |")
     print()
     ends = touch_window(2)
     print(f"Touch-and-go f/2 orbit (e = 0, two touch-and-go contacts per 4 pi), stable on "
