@@ -29,10 +29,79 @@ from scipy.optimize import brentq
 
 from ._checks import check_choice, check_int, check_positive, check_real, check_restitution
 from .harmonics import flat_w_hat
+from .sticking import sticking_orbit, touch_orbits
 
 __all__ = ["FlatLayer"]
 
 _BRANCHES = ("stable", "unstable")
+_PATTERNS = ("auto", "bounce", "stick", "touch")
+
+
+class _NoBounceOrbit(ValueError):
+    """The single-bounce orbit (17)-(19) does not exist or is inadmissible."""
+
+
+def _check_order(M):
+    """M as an int >= 1; integral floats (2.0) are accepted, 2.5 is not."""
+    if isinstance(M, (float, np.floating)) and math.isfinite(M) and float(M).is_integer():
+        M = int(M)
+    return check_int(M, "M", minimum=1)
+
+
+def _contact_orbit(Gamma, M, e, pattern, branch):
+    """(ContactOrbit or None, reason) for pattern "stick" or "touch"."""
+    if pattern == "stick":
+        return sticking_orbit(Gamma, e, M)
+    if e != 0.0:
+        return None, f"touch-and-go orbits need e = 0 (with e = {e} every landing rebounds)"
+    orbits = touch_orbits(Gamma, M)
+    if not orbits:
+        return None, "no touch-and-go orbit of this period found"
+    stable = [o for o in orbits if abs(o.multipliers[0]) < 1.0]
+    unstable = [o for o in orbits if abs(o.multipliers[0]) >= 1.0]
+    chosen = stable if branch == "stable" else unstable[::-1]
+    if not chosen:
+        return None, (f"no {branch} touch-and-go orbit (found {len(orbits)} with |multiplier| "
+                      f"{', '.join(f'{abs(o.multipliers[0]):.4g}' for o in orbits)})")
+    return chosen[0], ""
+
+
+def _bounce_exists(Gamma, M, e):
+    """True if the single-bounce orbit exists and is admissible on at least one branch."""
+    for branch in _BRANCHES:
+        try:
+            FlatLayer.__new__(FlatLayer)._init_bounce(Gamma, M, e, None, branch)
+        except ValueError:
+            continue
+        return True
+    return False
+
+
+def _existing_patterns(Gamma, M, e, exclude=None):
+    """A sentence saying which patterns exist for (Gamma, e, M), for error messages."""
+    found, reasons = [], []
+    for pat in ("bounce", "stick", "touch"):
+        if pat == exclude:
+            continue
+        if pat == "bounce":
+            ok, why = _bounce_exists(Gamma, M, e), "no admissible single-bounce orbit (17)-(19)"
+        elif pat == "touch" and e != 0.0:
+            continue
+        else:
+            orbit, why = _contact_orbit(Gamma, M, e, pat, "stable")
+            if orbit is None and pat == "touch":
+                orbit, _ = _contact_orbit(Gamma, M, e, pat, "unstable")
+                if orbit is not None:
+                    found.append("'touch' (branch='unstable')")
+                    continue
+            ok = orbit is not None
+        if ok:
+            found.append(repr(pat))
+        else:
+            reasons.append(f"{pat}: {why}")
+    head = (f"patterns that exist for Gamma = {Gamma}, e = {e}, M = {M}: "
+            f"{', '.join(found) if found else 'none'}")
+    return head + (f" ({'; '.join(reasons)})" if reasons else "")
 
 
 def _flight_velocity(t, t_start, v, Gamma):
@@ -164,13 +233,53 @@ class FlatLayer:
     0.4307
     """
 
-    def __init__(self, Gamma, M, e=None, t0=None, branch="stable"):
+    def __init__(self, Gamma, M=2, e=None, t0=None, branch="stable", pattern="auto"):
         Gamma = check_positive(Gamma, "Gamma")
-        M = check_int(M, "M", minimum=1)
+        M = _check_order(M)
         branch = check_choice(branch, "branch", _BRANCHES)
-        T = 2.0 * math.pi * M
+        pattern = check_choice(pattern, "pattern", _PATTERNS)
         if e is None and t0 is None:
             raise ValueError("e or t0 must be given (e in [0, 1), or t0 with e from (19))")
+        if e is not None:
+            e = check_restitution(e, "e")
+        if pattern in ("stick", "touch"):
+            if t0 is not None:
+                raise ValueError(f"t0 can only be given with pattern='bounce' or 'auto' (the {pattern!r} "
+                                 f"orbit fixes its own lift-off phase), got t0 = {t0!r}")
+            self._init_contact(Gamma, M, e, pattern, branch)
+            return
+        try:
+            self._init_bounce(Gamma, M, e, t0, branch)
+        except _NoBounceOrbit as exc:
+            if pattern == "auto" and t0 is None and e == 0.0:
+                for alt in ("stick", "touch"):
+                    orbit, _ = _contact_orbit(Gamma, M, e, alt, "stable")
+                    if orbit is not None:
+                        self._set_contact(Gamma, M, e, orbit)
+                        return
+            if e is None:
+                raise ValueError(str(exc)) from None
+            raise ValueError(f"{exc}; {_existing_patterns(Gamma, M, e, exclude='bounce')}") from None
+
+    def _init_contact(self, Gamma, M, e, pattern, branch):
+        orbit, why = _contact_orbit(Gamma, M, e, pattern, branch)
+        if orbit is None:
+            raise ValueError(f"pattern={pattern!r} does not exist for Gamma = {Gamma}, e = {e}, M = {M} "
+                             f"({why}); {_existing_patterns(Gamma, M, e, exclude=pattern)}")
+        self._set_contact(Gamma, M, e, orbit)
+
+    def _set_contact(self, Gamma, M, e, orbit):
+        self.Gamma, self.M, self.e = Gamma, M, e
+        self.period = 2.0 * math.pi * M
+        self.pattern = orbit.pattern
+        self._orbit = orbit
+        self.t0 = orbit.t0
+        self.W0 = 0.0
+        self.branch = "stable" if abs(orbit.multipliers[0]) < 1.0 else "unstable"
+
+    def _init_bounce(self, Gamma, M, e, t0, branch):
+        """The single-bounce orbit (17)-(19) (the constructor before contact patterns existed)."""
+        T = 2.0 * math.pi * M
         if t0 is not None:
             t0 = check_real(t0, "t0")
             s = 2.0 * Gamma * math.cos(t0) / T
@@ -195,7 +304,7 @@ class FlatLayer:
             s = (1.0 - e) / (1.0 + e)
             c = s * T / (2.0 * Gamma)
             if c > 1.0:
-                raise ValueError(
+                raise _NoBounceOrbit(
                     f"Gamma is too small for a period-{M} orbit with e = {e}: (19) needs "
                     f"Gamma >= s*pi*M = {s * math.pi * M:.12g}, got Gamma = {Gamma}")
             t0 = math.acos(c) if branch == "stable" else -math.acos(c)
@@ -206,25 +315,78 @@ class FlatLayer:
         self.period = T
         self.W0 = T / (2.0 * Gamma) - math.cos(t0)
         self.branch = "stable" if t0 >= 0 else "unstable"
+        self.pattern = "bounce"
+        self._orbit = None
         self._check_admissible()
 
     # ------------------------------------------------------------------ orbit
     def __repr__(self):
+        extra = "" if self.pattern == "bounce" else f", pattern={self.pattern!r}"
         return (f"FlatLayer(Gamma={self.Gamma!r}, M={self.M!r}, e={self.e!r}, "
-                f"t0={self.t0!r}, branch={self.branch!r})")
+                f"t0={self.t0!r}, branch={self.branch!r}{extra})")
+
+    @property
+    def events(self):
+        """Contact events in one period ``[t0, t0 + T)``: a list of ``(t, kind)``.
+
+        ``kind`` is ``"impact"`` (a landing; with ``e > 0`` a rebound, with
+        ``e = 0`` followed at the same instant by ``"stick"`` or, for a
+        touch-and-go, ``"liftoff"``), ``"stick"`` (the node comes to rest; for
+        ``e > 0`` the accumulation time of a chatter sequence, whose last,
+        geometrically small bounces are summed in closed form and not listed)
+        or ``"liftoff"`` (the node leaves the plate from rest).  The
+        single-bounce orbit has the one event ``(t0, "impact")``.
+
+        Returns
+        -------
+        events : list of (float, str)
+        """
+        if self._orbit is None:
+            return [(self.t0, "impact")]
+        return list(self._orbit.events)
+
+    @property
+    def contact_sequence(self):
+        """The landings of one period as letters.
+
+        "B" a rebound (e > 0), "T" a touch-and-go (e = 0, g > 0 at the
+        landing), "S" a landing to rest (e = 0, g <= 0), "C" a chatter
+        sequence accumulating to rest (e > 0): the impacts from the last one
+        after which all impacts happen at g < 0 with decreasing rebound speeds
+        (so the letter count does not depend on how many bounces are resolved
+        before the tail is summed).  The single-bounce orbit is "B" ("T" if
+        e = 0).
+
+        Returns
+        -------
+        sequence : str
+
+        Examples
+        --------
+        >>> FlatLayer(4.1, e=0.0).contact_sequence, FlatLayer(4.4, e=0.1, pattern="stick").contact_sequence
+        ('TS', 'BC')
+        """
+        if self._orbit is None:
+            return "B" if self.e > 0.0 else "T"
+        return self._orbit.contact_sequence()
+
+    @property
+    def chatter_error(self):
+        """Bound on the error of the closed-form chatter accumulation times (0 if none)."""
+        return 0.0 if self._orbit is None else self._orbit.tail_error
 
     def _check_admissible(self):
         """Raise ValueError unless zeta > 0 on the open period (rigorous, see _monotone_pieces)."""
         t0, T, G = self.t0, self.period, self.Gamma
         if self.W0 < 0.0 or (self.W0 == 0.0 and math.sin(t0) - 1.0 / G <= 0.0):
-            raise ValueError(
+            raise _NoBounceOrbit(
                 f"inadmissible orbit: post-impact velocity W0 = {self.W0:.6g} with g(t0) = "
                 f"{math.sin(t0) - 1.0 / G:.6g} does not lift off (for e = 0 the layer sticks; "
                 f"sticking orbits are not of the form (17)-(19))")
         t_hit = _next_impact(t0, self.W0, G, T * (1.0 + 1e-9))
         if t_hit is None or t_hit < t0 + T * (1.0 - 1e-10):
             where = "never" if t_hit is None else f"at t = {t_hit:.12g} < t0 + T = {t0 + T:.12g}"
-            raise ValueError(
+            raise _NoBounceOrbit(
                 f"inadmissible orbit for Gamma = {G}, e = {self.e:.12g}, M = {self.M}, t0 = {t0:.12g}: "
                 f"the layer touches the plate {where} (zeta must be > 0 on the open period)")
 
@@ -247,6 +409,8 @@ class FlatLayer:
         -------
         W : ndarray of float, same shape as ``t``
         """
+        if self._orbit is not None:
+            return self._orbit.velocity(t)
         tau = self._phase(t)
         return self.W0 + math.cos(self.t0) - np.cos(self.t0 + tau) - tau / self.Gamma
 
@@ -261,18 +425,28 @@ class FlatLayer:
         -------
         zeta : ndarray of float, same shape as ``t``
         """
+        if self._orbit is not None:
+            return self._orbit.height(t)
         tau = self._phase(t)
         return (tau * (self.period - tau) / (2.0 * self.Gamma) + math.sin(self.t0)
                 - np.sin(self.t0 + tau))
 
     @property
     def impact_velocity(self):
-        """Pre-impact velocity W(t0 + T -) = W0 - T/Gamma (< 0)."""
+        """Pre-impact velocity W(t0 + T -) = W0 - T/Gamma (< 0).
+
+        For the other patterns: the pre-impact velocity of the first landing after ``t0``.
+        """
+        if self._orbit is not None:
+            kind, a, b, v = self._orbit.segments[0]
+            return float(_flight_velocity(b, a, v, self.Gamma))
         return self.W0 - self.period / self.Gamma
 
     @property
     def peak_height(self):
         """Maximum of zeta over the period (at the interior zero of W)."""
+        if self._orbit is not None:
+            return self._orbit.peak_height()
         best = 0.0
         for a, b in _monotone_pieces(self.t0, self.t0 + self.period, self.W0, self.Gamma):
             for t in (a, b):
@@ -285,6 +459,13 @@ class FlatLayer:
         :math:`\hat W_n = e^{-in\alpha t_0}/(i n\alpha\Gamma) - \tfrac12\delta_{|n|M}`,
         :math:`\hat W_0 = 0` (closed form, no FFT; see :func:`~tps_solver.harmonics.flat_w_hat`).
 
+        For the sticking and touch-and-go patterns each flight segment
+        :math:`[a, b]` contributes
+        :math:`T^{-1}\int_a^b (v + \cos a - \cos t - (t-a)/\Gamma)\,e^{-in\alpha t}\,dt`
+        in closed form and sticks contribute nothing; the unresolved chatter
+        tails of ``e > 0`` add at most ``self._orbit.harmonic_tail_bound`` (of
+        order 1e-15 or less) to any coefficient and are left out.
+
         Parameters
         ----------
         N : int
@@ -295,6 +476,8 @@ class FlatLayer:
         w_hat : ndarray of complex, shape (2N+1,)
             Entry ``N + n`` is :math:`\hat W_n`, ``n = -N..N``.
         """
+        if self._orbit is not None:
+            return self._orbit.harmonics(check_int(N, "N", minimum=1))
         return flat_w_hat(N, self.M, self.Gamma, self.t0)
 
     def height_harmonics(self, N):
@@ -304,7 +487,11 @@ class FlatLayer:
         Returns
         -------
         zeta_hat : ndarray of complex, shape (2N+1,)
+            For the sticking and touch-and-go patterns: closed form per flight
+            segment, entry ``N`` the period mean.
         """
+        if self._orbit is not None:
+            return self._orbit.harmonics(check_int(N, "N", minimum=1), height=True)
         w = self.harmonics(N)
         n = np.arange(-N, N + 1)
         z = np.zeros_like(w)
@@ -363,6 +550,9 @@ class FlatLayer:
             Rows (t', v'), columns (t, v).
         """
         if t is None:
+            if self._orbit is not None:
+                raise ValueError(f"t and v must be given: the {self.pattern!r} orbit is not a single-impact "
+                                 f"orbit (its period-map multipliers are in floquet_multipliers())")
             t, v = self.t0, self.W0
             t_next = t + self.period
         else:
@@ -378,12 +568,22 @@ class FlatLayer:
                          [-e * (-g0 + g1 * dtt), -e * (1.0 + g1 * dtv)]])
 
     def floquet_multipliers(self):
-        """The two multipliers of the period (impact) map, by decreasing modulus.
+        r"""The two multipliers of the period (impact) map, by decreasing modulus.
+
+        For ``pattern="stick"`` both are 0: every nearby state lands, sticks
+        and lifts off at the same phase from the same state (w = zeta = 0), so
+        the period map is locally constant.  For ``pattern="touch"`` (e = 0)
+        the state at a contact is the contact time alone (w = 0 after it);
+        the map has the multipliers :math:`\prod_i \Delta_i g(t_{i-1})/w(t_i^-)`
+        and 0, with :math:`\Delta_i` the flight durations.
 
         Returns
         -------
         mu : ndarray of complex, shape (2,)
         """
+        if self._orbit is not None:
+            mu = np.array(self._orbit.multipliers, dtype=complex)
+            return mu[np.argsort(-np.abs(mu), kind="stable")]
         mu = np.linalg.eigvals(self.impact_map_jacobian()).astype(complex)
         return mu[np.argsort(-np.abs(mu), kind="stable")]
 

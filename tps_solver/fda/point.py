@@ -1,0 +1,553 @@
+r"""Point impacts with modal amplitudes carried across events: :class:`PointIntegrator`.
+
+The flight between two events is the closed form (55)-(56) of the free sub-lattice
+(53), written in the modes :math:`\underline L_{FF} = V\Lambda V^{-1}` of the free set
+(the decomposition of ``method="exact"``):
+
+.. math::
+    \underline w_F(t_c + \tau) = V\underline c_w(\tau), \quad
+    \underline\zeta_F(t_c + \tau) = \underline\zeta_F(t_c) + V\underline c_\zeta(\tau),
+    \quad \underline c_w = e^{\Lambda\tau}\underline a + \underline s\odot\mathcal W_\Lambda(\tau),
+    \quad \underline c_\zeta = \tau\varphi_1(\Lambda\tau)\underline a + \underline s\odot\mathcal Z_\Lambda(\tau).
+
+What this integrator does differently from ``method="exact"`` (same event rules, same
+certified search, same contact sets (54)):
+
+* **No modal round trip at an impact.**  The modal amplitudes are the state between
+  events.  When the next call starts where the previous one stopped, on the same free
+  set, the post-event amplitudes are a rank-:math:`k` correction of the propagated ones,
+  :math:`\underline a^+ = \alpha\,\underline c_w + V^{-1}_{:,K}\,(\underline w^+ - \alpha\underline w^-)_K`
+  with :math:`\alpha \in \{1, -e\}` chosen so that :math:`K` (the nodes the impact
+  rule did not map by :math:`w \mapsto \alpha w`) is smallest: a point impact (54) of
+  :math:`k` nodes costs :math:`O(nk)`, and a contact set holding every free node (a flat
+  region) is :math:`\underline a^+ = -e\,\underline c_w` exactly, so a flat layer stays
+  flat to round-off instead of accumulating projection errors event after event.
+  The heights stay nodal (:math:`\underline\zeta_F(t_c)` is never projected).
+* **O(n) single-node evaluations.**  The root polish is a safeguarded Newton iteration
+  on one candidate: its value and slope are one row of :math:`V` against the modal
+  coefficients (:math:`\zeta_j' = w_j`; for a stuck node, the two lattice neighbours of
+  :math:`a_j = g + (\underline L\underline w)_j`).
+* **Work per free set, once.**  The forcing part of the derivative bounds, the modal
+  data and the banded rows of :math:`\underline L` (at most three entries per row on
+  a one-dimensional lattice) are built once per free set and cached; products with
+  :math:`\underline L` use the band, not a dense matrix.
+
+Contact search (docs/design.md, hazard 4 and 5)
+-----------------------------------------------
+The search is the certified rule of ``method="exact"``: with :math:`A_j \ge |f_j''|`
+for every later time (the modal derivative bounds), no zero of a candidate
+:math:`f_j` (height of a free node, minus the free acceleration of a stuck node) lies
+in :math:`(t, t + h_j)` where :math:`f_j + f_j'h - A_jh^2/2 > 0`, so no crossing --
+single or double -- is stepped over; a candidate is bracketed once it is certified
+strictly decreasing up to its root bound, the earliest root is polished to
+:math:`10^{-15}` in the local time, and every candidate reaching zero within
+``time_tol`` of it joins the contact set (54).
+"""
+import math
+from collections import OrderedDict
+
+import numpy as np
+
+from .base import Integrator, Step
+from .events import event_sets
+from .exact import Modes
+
+__all__ = ["PointIntegrator"]
+
+_EPS = np.finfo(float).eps
+
+
+class _Band:
+    """Rows of a sparse matrix as padded (column, value) pairs: O(nnz) products.
+
+    Parameters
+    ----------
+    M : ndarray of float, shape (m, k)
+    """
+
+    def __init__(self, M):
+        m = M.shape[0]
+        rows, cols = np.nonzero(M)
+        count = np.bincount(rows, minlength=m)
+        width = max(int(count.max(initial=0)), 1)
+        start = np.concatenate(([0], np.cumsum(count)[:-1]))
+        slot = np.arange(rows.size) - start[rows]
+        self.cols = np.zeros((m, width), dtype=np.int64)
+        self.vals = np.zeros((m, width))
+        self.cols[rows, slot] = cols
+        self.vals[rows, slot] = M[rows, cols]
+        self.abs_vals = np.abs(self.vals)
+
+    def dot(self, x):
+        """``M @ x`` for ``x`` of shape (k,)."""
+        return (self.vals * x[self.cols]).sum(axis=1)
+
+    def absdot(self, x):
+        """``|M| @ x``."""
+        return (self.abs_vals * x[self.cols]).sum(axis=1)
+
+
+class _FreeSet:
+    """Everything of one free set that does not depend on the state (cached)."""
+
+    def __init__(self, lattice, free, Gamma):
+        md = Modes(lattice, free)
+        self.modes = md
+        self.F, self.S = md.index, md.stuck
+        self.nf = md.index.size
+        self.lam, self.abs_lam = md.lam, md.abs_lam
+        self.V, self.Vinv, self.absV = md.V, md.Vinv, md.absV
+        self.forced = md.forced
+        self.lam_forced = md.lam[md.forced]
+        self.s_forced = md.s[md.forced]
+        self.s_masked = np.zeros(self.nf)
+        self.s_masked[md.forced] = self.s_forced
+        self.resolvent = np.zeros(self.nf, dtype=complex)
+        self.resolvent[md.forced] = 1.0 / (1j - self.lam_forced)
+        G = 1.0 + 1.0 / Gamma
+        big = np.maximum(1.0, self.abs_lam)
+        abs_s = np.abs(md.s)
+        # time-independent forcing part of the derivative bounds D_1, D_2, D_3
+        self.forcing = md.absV @ np.column_stack([(m + 1) * G * big ** (m - 1) * abs_s for m in (1, 2, 3)])
+        self.lam12 = np.column_stack((self.abs_lam, self.abs_lam ** 2))
+        self.L_FF = _Band(md.L_FF)
+        self.L_SF = _Band(md.L_SF)
+
+
+class _Segment:
+    r"""Closed-form flight (55)-(56) of one free set from ``t_c``, O(n) per evaluation.
+
+    With :math:`R = e^{it_c}/(i - \lambda) = R_r + iR_i` per mode, the forced response of
+    :func:`~.exact.forced_response` is
+    :math:`\mathcal W = R_r\sin\tau - R_i(2\sin^2(\tau/2) + e^{\lambda\tau} - 1) - \tau\varphi_1/\Gamma` and
+    :math:`\mathcal Z = 2R_r\sin^2(\tau/2) + R_i(\sin\tau - \tau\varphi_1) - \tau^2\varphi_2/\Gamma`,
+    so the per-segment constants are computed once and an evaluation is a few vector operations;
+    written this way every term is accurate relative to its own size at small :math:`\tau` (no
+    :math:`1 - \cos\tau` cancellation), which keeps the root polish convergent.
+    """
+
+    def __init__(self, fs, a, zeta0, t_c, Gamma):
+        self.fs, self.a, self.zeta0, self.t_c = fs, a, zeta0, t_c
+        R = complex(math.cos(t_c), math.sin(t_c)) * fs.resolvent
+        s = fs.s_masked
+        self.u = s * R.real
+        self.v = s * R.imag
+        self.q = s / Gamma
+        self.forced = fs.forced.size > 0
+        self._memo = (None, None, None, None)
+
+    def coefficients(self, tau):
+        """Modal coefficients ``(c_w, c_zeta)`` and ``e^{lam tau}`` at local time ``tau``."""
+        if self._memo[0] == tau:
+            return self._memo[1:]
+        fs = self.fs
+        z = fs.lam * tau
+        em1 = np.expm1(z)
+        expo = em1 + 1.0
+        p1 = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0)
+        if self.forced:
+            st = math.sin(tau)
+            vers = 2.0 * math.sin(0.5 * tau) ** 2         # 1 - cos(tau) without cancellation
+            cw = expo * self.a + self.u * st - self.v * (vers + em1) - self.q * p1
+            cz = p1 * self.a + self.u * vers + self.v * (st - p1) - self.q * (tau * tau * _phi2(z))
+        else:
+            cw = expo * self.a
+            cz = p1 * self.a
+        self._memo = (tau, cw, cz, expo)
+        return cw, cz, expo
+
+    def state(self, tau):
+        """``(w_F, zeta_F, c_w, e^{lam tau})`` at local time ``tau``."""
+        cw, cz, expo = self.coefficients(tau)
+        WZ = self.fs.V @ np.column_stack((cw, cz))
+        return WZ[:, 0], self.zeta0 + WZ[:, 1], cw, expo
+
+
+class PointIntegrator(Integrator):
+    r"""Point impacts (54) with exact modal flights, O(n) per impact (impulsive method).
+
+    Between events the free nodes follow the closed form (55)-(56) of the free
+    sub-lattice (53); see the module docstring for the certified contact search
+    and for how the modal amplitudes are carried across impacts.  The driver
+    applies the impact rule, sticking and lift-off to each returned
+    :class:`~.base.Step`.
+
+    Parameters
+    ----------
+    lattice : Lattice
+    Gamma : float
+        Plate acceleration, > 0.
+    e : float
+        Restitution in [0, 1).
+    time_tol : float, optional
+        Simultaneity window of a contact set (54) and floor of the safe step
+        (default 1e-12).
+    max_steps : int, optional
+        Bound on search steps between two events; exceeding it raises
+        ``RuntimeError`` (default 200000).
+    cache_size : int, optional
+        Number of free-set decompositions kept (default 64).
+
+    Attributes
+    ----------
+    n_steps : int
+        Search steps taken.
+    n_decompositions : int
+        Free-set decompositions built.
+    n_projections : int
+        Segments started by a full projection :math:`V^{-1}\underline w_F` (new
+        free set or a state not produced by this integrator); every other
+        segment started from a rank-k update.
+
+    Examples
+    --------
+    A flat layer hits the plate once per period, every node in one contact set:
+
+    >>> import numpy as np
+    >>> import tps_solver as tps
+    >>> fl = tps.FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> lat = tps.Lattice.planar(n_nodes=5, length=4.0)
+    >>> t = fl.t0 + 1.0
+    >>> w, z = np.full(5, fl.velocity(t)), np.full(5, fl.height(t))
+    >>> step = PointIntegrator(lat, 2.5, 0.45).advance(t, w, z, np.zeros(5, bool), t + fl.period)
+    >>> step.contact
+    array([0, 1, 2, 3, 4])
+    >>> bool(abs(step.t - (fl.t0 + fl.period)) < 1e-13)
+    True
+    """
+
+    name = "point"
+    impulsive = True
+    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64}
+
+    def __init__(self, lattice, Gamma, e, **options):
+        super().__init__(lattice, Gamma, e, **options)
+        self.time_tol = float(self.options["time_tol"])
+        self.max_steps = int(self.options["max_steps"])
+        self._cache_size = int(self.options["cache_size"])
+        if not self.time_tol > 0.0:
+            raise ValueError(f"time_tol must be a finite number > 0, got {self.time_tol!r}")
+        if self.max_steps < 1:
+            raise ValueError(f"max_steps must be an integer >= 1, got {self.max_steps!r}")
+        if self._cache_size < 1:
+            raise ValueError(f"cache_size must be an integer >= 1, got {self._cache_size!r}")
+        self._cache = OrderedDict()
+        self.n_decompositions = 0
+        self.n_projections = 0
+        # absolute time until which a node released at rest is exempt from contact detection
+        self._guard = np.full(lattice.n_nodes, -np.inf)
+        # (t, free-set key, returned w_F, modal velocity amplitudes at t) of the last call
+        self._carry = None
+
+    # --------------------------------------------------------------- free sets
+    def _free_set(self, free):
+        key = np.packbits(free).tobytes()
+        fs = self._cache.get(key)
+        if fs is None:
+            fs = _FreeSet(self.lattice, free, self.Gamma)
+            self.n_decompositions += 1
+            self._cache[key] = fs
+            if len(self._cache) > self._cache_size:
+                self._cache.popitem(last=False)
+        else:
+            self._cache.move_to_end(key)
+        return key, fs
+
+    def _amplitudes(self, t, key, fs, wF):
+        """Modal velocity amplitudes of ``wF``: a rank-k update of the carried state if possible."""
+        carry = self._carry
+        if carry is not None and carry[0] == t and carry[1] == key:
+            w_prev, c_prev = carry[2], carry[3]
+            moved = wF != w_prev
+            flipped = wF != -self.e * w_prev
+            n1, n2 = np.count_nonzero(moved), np.count_nonzero(flipped)
+            if n1 <= n2:
+                a = c_prev.copy()
+                if n1:
+                    K = np.flatnonzero(moved)
+                    a += fs.Vinv[:, K] @ (wF[K] - w_prev[K])
+            else:
+                a = -self.e * c_prev
+                if n2:
+                    K = np.flatnonzero(flipped)
+                    a += fs.Vinv[:, K] @ (wF[K] + self.e * w_prev[K])
+            return a
+        self.n_projections += 1
+        return fs.Vinv @ wF
+
+    # ------------------------------------------------------- modal evaluation
+    def _row_value(self, seg, j, tau):
+        """Candidate ``j``, its slope and its round-off at ``tau`` (height of free row j, or minus a
+        stuck acceleration): one row of ``V`` against the modal coefficients, O(n)."""
+        fs = seg.fs
+        cw, cz, _ = seg.coefficients(tau)
+        if j < fs.nf:
+            row = fs.V[j]
+            noise = 8 * _EPS * (abs(seg.zeta0[j]) + fs.absV[j] @ np.abs(cz))
+            return seg.zeta0[j] + row @ cz, row @ cw, noise
+        k = j - fs.nf
+        t = seg.t_c + tau
+        g = math.sin(t) - 1.0 / self.Gamma
+        cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
+        Vn = fs.V[cols]
+        acc = g + vals @ (Vn @ cw)
+        dacc = math.cos(t) + vals @ (Vn @ (fs.lam * cw + g * fs.s_masked))
+        noise = 8 * _EPS * (abs(g) + fs.L_SF.abs_vals[k] @ (fs.absV[cols] @ np.abs(cw)))
+        return -acc, -dacc, noise
+
+    # ------------------------------------------------------------------ step
+    def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
+        """Propagate from ``t`` to the next contact or lift-off set, or to ``t_stop``.
+
+        Parameters
+        ----------
+        t : float
+        w, zeta : ndarray of float, shape (n_nodes,)
+            Post-event state at ``t``.
+        stuck : ndarray of bool, shape (n_nodes,)
+        t_stop : float
+        t_eval : ndarray of float
+            Sorted output times; those in ``(t, t_new]`` are sampled.
+
+        Returns
+        -------
+        Step
+            ``t`` (event time or ``t_stop``), the pre-event ``w`` and ``zeta``, the
+            contact set (54), the lift-off set and the samples.
+
+        Raises
+        ------
+        RuntimeError
+            After ``max_steps`` search steps without an event (grazing contact).
+        """
+        Gamma, time_tol = self.Gamma, self.time_tol
+        free = ~np.asarray(stuck, dtype=bool)
+        key, fs = self._free_set(free)
+        F, S, nf = fs.F, fs.S, fs.nf
+        n = w.size
+        wF, zeta0 = w[F].astype(float), zeta[F].astype(float)
+        a = self._amplitudes(t, key, fs, wF)
+        abs_a = np.abs(a)
+        has_stuck = S.size > 0
+        t_eval = np.asarray(t_eval, dtype=float)
+        samples = []
+        t0 = t
+        tau = 0.0
+        tau_stop = t_stop - t0
+        floor = 16 * _EPS * max(1.0, abs(t0) + abs(t_stop))
+        zF = zeta0
+        g0 = math.sin(t0) - 1.0 / Gamma
+        accF = fs.L_FF.dot(wF) + g0
+        eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
+        eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
+        at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
+        if np.any(at_plate):
+            # released stuck nodes (a = 0, da/dt > 0): certified for 3 (da/dt) / D_3, and exempted
+            # from contact detection until their height exceeds the modal round-off (a guard)
+            eps_a = 64 * _EPS * (1.0 + abs(g0) + fs.L_FF.absdot(np.abs(wF)))
+            jerk = fs.L_FF.dot(accF) + math.cos(t0)
+            C = fs.absV @ (fs.abs_lam ** 3 * abs_a) + fs.forcing[:, 2]
+            rel = at_plate & (jerk > 0.0) & (np.abs(accF) <= eps_a + time_tol * jerk)
+            delay = np.maximum(-accF[rel], 0.0) / jerk[rel]
+            self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
+                                                          np.cbrt(6.0 * eps_z / jerk[rel]))
+        release = self._guard[F] - t0
+        seg = _Segment(fs, a, zeta0, t0, Gamma)
+        steps = 0
+        cw = a
+        while True:
+            steps += 1
+            if steps > self.max_steps:
+                self.n_steps += steps - 1
+                raise RuntimeError(f"contact search made {self.max_steps} steps without an event "
+                                   f"near t = {t0 + tau:.15g} (grazing contact?)")
+            t_now = t0 + tau
+            if tau > 0.0:
+                wF, zF, cw, expo = seg.state(tau)
+                decay = expo * abs_a
+            else:
+                decay = abs_a
+            g = math.sin(t_now) - 1.0 / Gamma
+            accF = fs.L_FF.dot(wF) + g
+            AB = fs.absV @ (fs.lam12 * decay[:, None]) + fs.forcing[:, :2]
+            A, B = AB[:, 0], AB[:, 1]
+            h_contact = _safe_step(zF, wF, A)
+            # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
+            h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
+            h_contact = np.maximum(np.maximum(h_contact, h_rise), release - tau)
+            if has_stuck:
+                # lift-off candidates: f = -a for stuck nodes
+                accS = g + fs.L_SF.dot(wF)
+                daccS = math.cos(t_now) + fs.L_SF.dot(accF)
+                CS = 1.0 + fs.L_SF.absdot(B)
+                f = np.concatenate((zF, -accS))
+                fp = np.concatenate((wF, -daccS))
+                Abound = np.concatenate((A, CS))
+                h = np.concatenate((h_contact, _safe_step(-accS, -daccS, CS)))
+            else:
+                f, fp, Abound, h = zF, wF, A, h_contact
+            if h.size == 0:
+                m, hm = 0, math.inf
+            else:
+                m = int(np.argmin(h))
+                hm = float(h[m])
+            if tau + hm >= tau_stop:
+                self._sample(seg, tau, tau_stop, t_eval, samples, n)
+                self.n_steps += steps
+                if tau_stop > 0.0:
+                    wF, zF, cw, _ = seg.state(tau_stop)
+                self._carry = (t_stop, key, wF, cw)
+                wo, zo = _full(F, n, wF, zF)
+                return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
+            event = None
+            if fp[m] < 0.0 and fp[m] ** 2 >= 2.5 * Abound[m] * max(f[m], 0.0):
+                event = self._bracket(seg, f, fp, Abound, h, tau, m)
+            if event is None and hm <= floor:
+                event = tau + hm
+            if event is not None:
+                self._sample(seg, tau, event, t_eval, samples, n)
+                self.n_steps += steps
+                out = self._finish(seg, key, event, n, samples)
+                if out.contact.size == 0 and out.liftoff.size == 0:     # guarantee progress
+                    if m < nf:
+                        out.contact = F[[m]]
+                    else:
+                        out.liftoff = S[[m - nf]]
+                return out
+            self._sample(seg, tau, tau + hm, t_eval, samples, n)
+            tau += hm
+
+    # ------------------------------------------------------------ internals
+    def _sample(self, seg, tau_a, tau_b, t_eval, samples, n):
+        if t_eval.size == 0:
+            return
+        t0 = seg.t_c
+        sel = (t_eval > t0 + tau_a) & (t_eval <= t0 + tau_b)
+        for te in t_eval[sel]:
+            wF, zF, _, _ = seg.state(te - t0)
+            samples.append((float(te),) + _full(seg.fs.F, n, wF, zF))
+
+    def _values(self, seg, tau, group):
+        """Candidates ``group`` (free rows, then stuck rows) at local time ``tau``."""
+        fs, zeta0, t0 = seg.fs, seg.zeta0, seg.t_c
+        cw, cz, _ = seg.coefficients(tau)
+        out = np.empty(group.size)
+        isf = group < fs.nf
+        rows = group[isf]
+        out[isf] = zeta0[rows] + fs.V[rows] @ cz
+        if not np.all(isf):
+            k = group[~isf] - fs.nf
+            cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
+            wn = (fs.V[cols.ravel()] @ cw).reshape(cols.shape)
+            g = math.sin(t0 + tau) - 1.0 / self.Gamma
+            out[~isf] = -(g + (vals * wn).sum(axis=1))
+        return out
+
+    def _bracket(self, seg, f, fp, A, h, tau, m):
+        """Monotone brackets for the leading candidates; None if not all certified."""
+        fpos = np.maximum(f, 0.0)
+        disc = fp * fp - 2.0 * A * fpos
+        ok = (fp < 0.0) & (fp * fp >= 2.5 * A * fpos)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            upper = np.where(ok, 2.0 * fpos / (-fp + np.sqrt(np.maximum(disc, 0.0))), np.inf)
+        span = upper[m]
+        while True:
+            group = np.flatnonzero(h < span)
+            if group.size == 0:
+                group = np.array([m])
+            if not np.all(ok[group]):
+                return None
+            new_span = float(np.max(upper[group]))
+            if new_span <= span:
+                break
+            span = new_span
+        # earliest root: start from the smallest Newton estimate, then repair order
+        newton = fpos[group] / -fp[group]
+        lead = int(group[np.argmin(newton)])
+        tau_c = self._root(seg, lead, tau, tau + upper[lead], f[lead], fp[lead])
+        for _ in range(group.size):
+            vals = self._values(seg, tau_c, group)
+            early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
+            if not np.any(early):
+                break
+            j = int(group[np.argmin(vals / -fp[group])])
+            tau_c = self._root(seg, j, tau, tau_c, f[j], fp[j])
+        return tau_c
+
+    def _root(self, seg, j, lo, hi, flo, dlo):
+        """Root of candidate ``j``, strictly decreasing on [lo, hi] (``flo``, ``dlo``: value, slope at lo).
+
+        Safeguarded Newton (bisection whenever an iterate leaves the bracket), O(n) per iteration.
+        """
+        if flo <= 0.0:
+            return lo
+        x, fx, dx = lo, flo, dlo
+        for _ in range(200):
+            xn = x - fx / dx if dx < 0.0 else math.inf
+            if not lo < xn < hi:
+                xn = 0.5 * (lo + hi)
+            fx, dx, noise = self._row_value(seg, j, xn)
+            if abs(fx) <= noise:            # at the root to the round-off of the evaluation
+                return xn
+            if fx > 0.0:
+                lo = xn
+            else:
+                hi = xn
+            if abs(xn - x) <= 1e-15 + 4 * _EPS * abs(xn) or hi - lo <= 1e-15 + 4 * _EPS * abs(hi):
+                return xn
+            x = xn
+        return x
+
+    def _finish(self, seg, key, tau_c, n, samples):
+        """State at the event and the simultaneous sets (54)."""
+        fs, a, zeta0, t0 = seg.fs, seg.a, seg.zeta0, seg.t_c
+        F, S = fs.F, fs.S
+        wF, zF, cw, _ = seg.state(tau_c)
+        t_c = t0 + tau_c
+        g = math.sin(t_c) - 1.0 / self.Gamma
+        eps_z = 64 * _EPS * (1.0 + np.abs(zeta0) + fs.absV @ np.abs(a) * max(1.0, tau_c))
+        eps_a = 64 * _EPS * (1.0 + abs(g) + fs.L_SF.absdot(np.abs(wF)))
+        contact, liftoff = event_sets(t_c, wF, zF, F, S, fs.modes.L_FF, fs.modes.L_SF, self.Gamma,
+                                      self.time_tol, eps_z, eps_a)
+        contact = contact[self._guard[contact] <= t_c]
+        self._carry = (t_c, key, wF, cw)
+        wo, zo = _full(F, n, wF, zF)
+        return Step(t_c, wo, zo, contact, liftoff, samples)
+
+
+def _full(F, n, wF, zF):
+    w = np.zeros(n)
+    z = np.zeros(n)
+    w[F] = wF
+    z[F] = zF
+    return w, z
+
+
+def _safe_step(f, fp, A):
+    r"""Largest h with :math:`f + f'h - Ah^2/2 > 0` on (0, h) (0 where f <= 0 and f' <= 0).
+
+    Uses :math:`h = 2f/(\sqrt{f'^2 + 2Af} - f')` for :math:`f' < 0` (no cancellation)
+    and :math:`(f' + \sqrt{f'^2 + 2Af})/A` otherwise.
+    """
+    f = np.maximum(f, 0.0)
+    root = np.sqrt(fp * fp + 2.0 * A * f)
+    den = root - fp
+    neg = np.divide(2.0 * f, den, out=np.zeros_like(f), where=den > 0.0)
+    pos = np.divide(fp + root, A, out=np.full_like(f, np.inf), where=A > 0.0)
+    return np.where(fp >= 0.0, pos, neg)
+
+
+_PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
+
+
+def _phi2(z):
+    r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2`, :math:`\varphi_2(0) = 1/2`; 10-term series for :math:`|z| < 0.1`."""
+    small = np.abs(z) < 0.1
+    out = np.divide(np.expm1(z) - z, z * z, out=np.empty_like(z), where=~small)
+    if np.any(small):
+        zs = z[small]
+        acc = np.full_like(zs, _PHI2_SERIES[-1])
+        for c in _PHI2_SERIES[-2::-1]:
+            acc = acc * zs + c
+        out[small] = acc
+    return out

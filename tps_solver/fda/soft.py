@@ -1,0 +1,580 @@
+r"""Fast soft-contact integrator: Radau IIA collocation with tridiagonal stage solves.
+
+The soft contact of :mod:`.regularised` (a spring-dashpot acting while
+:math:`\zeta_i < 0`, Appendix A made finite) is *piecewise linear*: with the
+contact set :math:`C` fixed, the state :math:`y = (w, \zeta)` obeys
+
+.. math::
+    \dot w = \underline L w - 2\beta\,c\circ w - \omega_0^2\,c\circ\zeta + g(t)\,(1 - c),
+    \qquad \dot\zeta = w,
+
+(:math:`c_i = 1` on :math:`C`, eqs. (51)-(52) with the contact force of
+(A.1)), a linear system :math:`\dot y = A_C y + b_C(t)` with a *tridiagonal*
+:math:`\underline L`.  :class:`SoftIntegrator` integrates it between switches
+with the ``s``-stage Radau IIA collocation method (order :math:`2s-1`,
+L-stable, default ``s = 5``: order 9).  Diagonalising the Butcher matrix turns
+the stage system into :math:`\lceil s/2\rceil` decoupled systems
+:math:`(I - \mu A_C)Z = R`; eliminating :math:`\zeta` leaves, for each, the
+tridiagonal system
+
+.. math::
+    \big[I - \mu\underline L + c\circ(2\beta\mu + \omega_0^2\mu^2)\big] Z_w
+    = R_w - \omega_0^2\mu\,c\circ R_\zeta, \qquad Z_\zeta = R_\zeta + \mu Z_w ,
+
+which are stacked into one block-tridiagonal LAPACK ``zgtsv`` call: O(n) work
+per step, whatever the contact set.  The step size is controlled by step
+doubling (the difference of one step and two half steps estimates the local
+error of the order-:math:`2s-1` method) against ``rtol``/``atol``.
+
+Switches
+--------
+A switch is a zero crossing of a *violation* function: :math:`-\zeta_i` for a
+free node (entry), :math:`\zeta_i` for a node in soft contact (exit), and the
+free acceleration :math:`a_i = (\underline L w)_i + g(t)` for a held node
+(release, see below).  Every accepted step is scanned on a grid of the
+collocation polynomials of both half steps (so a node that enters and leaves
+within a step is still seen); the earliest crossing is then located by a
+bracketed Newton iteration whose every evaluation is a *full* collocation step
+from the start of the step (order :math:`2s-1`, not the polynomial's order
+``s``), stopping when the Newton correction is below ``time_tol / 100`` (or
+4 ulp of ``t``).  Other nodes whose crossing lies within ``time_tol`` of the
+located time switch in the same event (a flat region enters as one set); a
+node found to have crossed more than ``time_tol`` *earlier* becomes the new
+target.  A switch only changes :math:`c` -- the state is continuous -- so
+the method carries no impact map.
+
+Sticking rule (part of the model; docs/design.md, hazard 10)
+------------------------------------------------------------
+The linear contact can adhere and a node arriving with a tiny speed
+micro-chatters (entry speed :math:`V`, exit speed :math:`eV`, a flight of
+:math:`2eV/|a|`, then again).  Therefore: a node that enters or leaves the
+soft contact with speed :math:`|w_i| \le` ``stick_speed`` while its free
+acceleration :math:`a_i = (\underline L w)_i + g(t) \le 0` is **held**: set to
+:math:`w_i = \zeta_i = 0` (a jump of at most ``stick_speed``) and moved with
+the plate (its row of :math:`\underline L` is dropped; its neighbours see
+:math:`w_i = 0`).  A held node is **released** (becomes free at
+:math:`\zeta_i = w_i = 0`) when :math:`a_i` turns positive.  Held nodes are
+recognised from the state alone: in contact with :math:`w_i = \zeta_i = 0`
+exactly.  A soft contact otherwise ends only when :math:`\zeta_i` crosses
+zero upwards (a node driven into the plate by its neighbours can stay in soft
+contact with :math:`a_i > 0`; that is the linear model).
+
+Restitution ``e = 0`` (docs/design.md, hazard 11)
+-------------------------------------------------
+The damping :math:`\beta = -\ln e/\tau_c` is infinite at ``e = 0``; the
+constructor refuses ``e = 0`` with a ``ValueError`` (use a small positive
+``e``, or the impulsive methods, which treat ``e = 0`` as sticking).
+
+Event records are ``(t, node, kind, w_before)`` with kind ``"impact"`` (entry
+into soft contact, ``w_before`` = entry velocity), ``"liftoff"`` (exit from
+soft contact or release of a held node, ``w_before`` = velocity at exit) and
+``"stick"`` (captured by the sticking rule, ``w_before`` = velocity before
+the capture).
+"""
+import collections
+import math
+
+import mpmath
+import numpy as np
+from scipy.linalg import lapack
+
+from .._validation import check_int, check_positive
+from .base import Integrator, Step
+from .lattice import Lattice
+from .regularised import soft_contact_parameters
+
+__all__ = ["SoftIntegrator", "radau_iia"]
+
+_FREE, _CONTACT, _HELD = 0, 1, 2
+
+
+def radau_iia(s):
+    r"""Nodes and Butcher matrix of the ``s``-stage Radau IIA method (computed in 40-digit arithmetic).
+
+    Parameters
+    ----------
+    s : int
+        Number of stages, >= 1 (order :math:`2s - 1`).
+
+    Returns
+    -------
+    c : ndarray of float, shape (s,)
+        Nodes, the roots of :math:`d^{s-1}/dx^{s-1}[x^{s-1}(x-1)^s]`; ``c[-1] = 1``.
+    A : ndarray of float, shape (s, s)
+        :math:`A_{ij} = \int_0^{c_i}\ell_j(\tau)\,d\tau` (collocation).
+
+    Examples
+    --------
+    >>> c, A = radau_iia(2)
+    >>> np.round(c, 12).tolist(), np.round(A, 12).tolist()
+    ([0.333333333333, 1.0], [[0.416666666667, -0.083333333333], [0.75, 0.25]])
+    """
+    s = check_int(s, "s", minimum=1)
+    with mpmath.workdps(40):
+        x = mpmath.mpf
+        # coefficients of x^(s-1) (x-1)^s, highest degree first
+        p = [mpmath.binomial(s, k) * (-1) ** k for k in range(s + 1)] + [x(0)] * (s - 1)
+        for _ in range(s - 1):                      # differentiate s-1 times
+            deg = len(p) - 1
+            p = [p[i] * (deg - i) for i in range(deg)]
+        roots = mpmath.polyroots(p, maxsteps=200, extraprec=80) if len(p) > 2 else [-p[1] / p[0]]
+        c = sorted(mpmath.re(r) for r in roots)
+        c[-1] = x(1)
+        V = mpmath.matrix([[ci ** m for m in range(s)] for ci in c])
+        W = mpmath.matrix([[ci ** (m + 1) / (m + 1) for m in range(s)] for ci in c])
+        A = W * V ** -1
+        return (np.array([float(ci) for ci in c]),
+                np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]))
+
+
+def _lagrange_matrix(nodes, theta):
+    """Values at ``theta`` of the Lagrange basis on ``nodes``: shape (len(theta), len(nodes))."""
+    nodes = np.asarray(nodes, float)
+    out = np.ones((len(theta), nodes.size))
+    for j in range(nodes.size):
+        for m in range(nodes.size):
+            if m != j:
+                out[:, j] *= (theta - nodes[m]) / (nodes[j] - nodes[m])
+    return out
+
+
+class SoftIntegrator(Integrator):
+    r"""Soft-contact time stepper (module docstring): exact switches, O(n) per step.
+
+    Parameters
+    ----------
+    lattice : Lattice
+        Any lattice (its operator is tridiagonal).
+    Gamma : float
+        Plate acceleration, > 0.
+    e : float
+        Restitution in (0, 1); ``e = 0`` raises ``ValueError`` (module docstring).
+    cutoff : float
+        Cut-off length :math:`\ell > 0`; contact time :math:`\tau_c = \ell^2`.
+    rtol, atol : float
+        Local error tolerances of the step-doubling control (defaults 1e-12).
+    stages : int
+        Radau IIA stages ``s`` in 1..9 (order ``2s - 1``); default 5.
+    stick_speed : float
+        Capture speed of the sticking rule, >= 0 (default 1e-8; 0 disables capture).
+    time_tol : float
+        Simultaneity window of switches, > 0 (default 1e-12); switch times are
+        located to ``time_tol / 100``.
+    max_step : float, optional
+        Largest step; default :math:`\tau_c` (a contact spans at least one step).
+    max_events : int
+        Bound on events per node within one forcing period :math:`2\pi`
+        (default 200): beyond it :meth:`advance` raises ``RuntimeError``.
+
+    Attributes
+    ----------
+    tau_c, omega0_sq, beta : float
+        Contact constants (:func:`~tps_solver.fda.regularised.soft_contact_parameters`).
+    n_steps : int
+        Collocation steps taken (trial, half and Newton steps).
+    n_rejected : int
+        Steps rejected by the error control.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tps_solver.fda import Lattice
+    >>> lat = Lattice.planar(n_nodes=5, length=4.0)
+    >>> integ = SoftIntegrator(lat, 2.5, 0.45, cutoff=0.3)
+    >>> t, w, z, stuck = 0.0, np.full(5, -1.0), np.full(5, 0.01), np.zeros(5, bool)
+    >>> s = integ.advance(t, w, z, stuck, 1.0)
+    >>> s.events[0][2], bool(abs(s.t - 0.01) < 1e-3), int(s.stuck.sum())
+    ('impact', True, 5)
+    """
+
+    name = "soft"
+    impulsive = False
+    OPTIONS = {"cutoff": None, "rtol": 1e-12, "atol": 1e-12, "stages": 5, "stick_speed": 1e-8,
+               "time_tol": 1e-12, "max_step": None, "max_events": 200}
+
+    def __init__(self, lattice, Gamma, e, **options):
+        super().__init__(lattice, Gamma, e, **options)
+        if not isinstance(lattice, Lattice):
+            raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
+        self.Gamma = check_positive(Gamma, "Gamma")
+        if e == 0:
+            raise ValueError("e must be in (0, 1) for the soft contact: at e = 0 its damping "
+                             "beta = -ln(e)/tau_c is infinite (docs/design.md, hazard 11); use a small "
+                             "e > 0, or an impulsive method (which treats e = 0 as sticking)")
+        opt = self.options
+        if opt["cutoff"] is None:
+            raise ValueError("cutoff must be given for method='soft' (a length > 0, the contact lasts "
+                             "tau_c = cutoff**2)")
+        self.cutoff = check_positive(opt["cutoff"], "cutoff")
+        self.tau_c, self.omega0_sq, self.beta = soft_contact_parameters(e, self.cutoff)
+        self.e = float(e)
+        self.rtol = check_positive(opt["rtol"], "rtol")
+        self.atol = check_positive(opt["atol"], "atol")
+        self.stages = check_int(opt["stages"], "stages", minimum=1, maximum=9)
+        self.stick_speed = float(opt["stick_speed"])
+        if not (math.isfinite(self.stick_speed) and self.stick_speed >= 0.0):
+            raise ValueError(f"stick_speed must be a finite number >= 0, got {opt['stick_speed']!r}")
+        self.time_tol = check_positive(opt["time_tol"], "time_tol")
+        self.max_step = (self.tau_c if opt["max_step"] is None
+                         else check_positive(opt["max_step"], "max_step"))
+        self.max_events = check_int(opt["max_events"], "max_events", minimum=1)
+        self.n_rejected = 0
+
+        L = np.asarray(lattice.operator, float)
+        n = self.n = L.shape[0]
+        off = L - np.diag(np.diag(L)) - np.diag(np.diag(L, 1), 1) - np.diag(np.diag(L, -1), -1)
+        if np.any(off != 0.0):
+            raise ValueError("lattice.operator must be tridiagonal for method='soft'")
+        self._Ld, self._Lu, self._Ll = np.diag(L).copy(), np.diag(L, 1).copy(), np.diag(L, -1).copy()
+
+        # Radau IIA tableau, diagonalised: A = T diag(lam) T^-1, one representative per conjugate pair
+        s = self.stages
+        c, A = radau_iia(s)
+        lam, T = np.linalg.eig(A.astype(complex))
+        order = np.argsort(-lam.imag)
+        lam, T = lam[order], T[:, order]
+        reps, used = [], set()
+        for k in range(s):
+            if k in used:
+                continue
+            if abs(lam[k].imag) < 1e-12:
+                lam[k] = lam[k].real
+                T[:, k] = T[:, k].real
+                reps.append((k, False))
+                used.add(k)
+            else:
+                j = min((m for m in range(s) if m not in used and m != k),
+                        key=lambda m: abs(lam[m] - np.conj(lam[k])))
+                lam[j], T[:, j] = np.conj(lam[k]), np.conj(T[:, k])
+                reps.append((k, True))
+                used.update((k, j))
+        Tinv = np.linalg.inv(T)
+        self._c = c
+        self._lam = np.array([lam[k] for k, _ in reps])
+        self._Trep = np.array([T[:, k] * (2.0 if pair else 1.0) for k, pair in reps]).T  # (s, m)
+        self._Tinv_rep = Tinv[[k for k, _ in reps]]                                       # (m, s)
+        self._q = self._Tinv_rep.sum(axis=1)                                              # T^-1 1
+        self._nodes = np.concatenate(([0.0], c))
+        G = 2 * s + 2
+        self._theta = np.arange(1, G + 1) / G
+        self._dense = _lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
+        self._order = 2 * s - 1
+        self._h = None
+        self._event_times = collections.deque()
+
+    # ------------------------------------------------------------ linear algebra
+    def _Lmul(self, u, rows_ok):
+        """:math:`\\underline L' u` for u of shape (..., n); rows of held nodes are zero."""
+        out = self._Ld * u
+        out[..., 1:] += self._Ll * u[..., :-1]
+        out[..., :-1] += self._Lu * u[..., 1:]
+        return out * rows_ok
+
+    def _config(self, mode):
+        """Masks of a contact configuration (mode: 0 free, 1 soft contact, 2 held)."""
+        c = (mode == _CONTACT).astype(float)
+        f = (mode == _FREE).astype(float)
+        rows_ok = (mode != _HELD).astype(float)
+        return c, f, rows_ok
+
+    def _rhs(self, t, w, z, cfg):
+        c, f, rows_ok = cfg
+        dw = self._Lmul(w, rows_ok) - 2.0 * self.beta * c * w - self.omega0_sq * c * z \
+            + (math.sin(t) - 1.0 / self.Gamma) * f
+        return dw, w * rows_ok
+
+    def _step(self, t0, h, w0, z0, cfg):
+        """One Radau IIA step; returns (w1, z1, Yw, Yz) with stage values of shape (s, n)."""
+        self.n_steps += 1
+        c, f, rows_ok = cfg
+        n, b, om2 = self.n, self.beta, self.omega0_sq
+        aw = self._Lmul(w0, rows_ok) - 2.0 * b * c * w0 - om2 * c * z0
+        g = np.sin(t0 + self._c * h) - 1.0 / self.Gamma
+        ghat = self._Tinv_rep @ g                                     # (m,)
+        mu = h * self._lam                                            # (m,)
+        m = mu.size
+        rw = mu[:, None] * (self._q[:, None] * aw[None, :] + ghat[:, None] * f[None, :])
+        rz = mu[:, None] * self._q[:, None] * w0[None, :]
+        rhs = rw - om2 * mu[:, None] * c[None, :] * rz
+        diag = 1.0 - mu[:, None] * (self._Ld * rows_ok)[None, :] \
+            + c[None, :] * (2.0 * b * mu + om2 * mu * mu)[:, None]
+        dl = np.zeros((m, n), complex)
+        du = np.zeros((m, n), complex)
+        dl[:, :-1] = -mu[:, None] * (self._Ll * rows_ok[1:])[None, :]
+        du[:, :-1] = -mu[:, None] * (self._Lu * rows_ok[:-1])[None, :]
+        _, _, _, x, info = lapack.zgtsv(dl.ravel()[:-1], diag.ravel(), du.ravel()[:-1],
+                                        rhs.reshape(-1, 1), 1, 1, 1, 1)
+        if info != 0:
+            raise RuntimeError(f"soft integrator: singular stage system at t = {t0:.15g} (h = {h:.3g})")
+        Zw = x.reshape(m, n)
+        Zz = rz + mu[:, None] * Zw
+        Yw = w0[None, :] + (self._Trep @ Zw).real
+        Yz = z0[None, :] + (self._Trep @ Zz).real
+        return Yw[-1].copy(), Yz[-1].copy(), Yw, Yz
+
+    # --------------------------------------------------------------- violations
+    def _violation(self, t, w, z, mode, cfg, with_rate=True):
+        """Violation v (crossing when v turns > 0) and its rate for every node."""
+        v = np.where(mode == _FREE, -z, z)
+        held = mode == _HELD
+        if with_rate:
+            dv = np.where(mode == _FREE, -w, w)
+        if held.any():
+            a = self._Lmul(w, 1.0) + (math.sin(t) - 1.0 / self.Gamma)
+            v = np.where(held, a, v)
+            if with_rate:
+                dw, _ = self._rhs(t, w, z, cfg)
+                da = self._Lmul(dw, 1.0) + math.cos(t)
+                dv = np.where(held, da, dv)
+        return (v, dv) if with_rate else v
+
+    def _grid_violation(self, t0, h, w0, z0, Yw, Yz, mode):
+        """Violation on the dense grid of one step: times (G,), values (G, n)."""
+        P = self._dense
+        Zg = P @ np.vstack((z0[None, :], Yz))
+        v = np.where(mode == _FREE, -Zg, Zg)
+        tg = t0 + self._theta * h
+        held = mode == _HELD
+        if held.any():
+            Wg = P @ np.vstack((w0[None, :], Yw))
+            a = self._Lmul(Wg, 1.0) + (np.sin(tg) - 1.0 / self.Gamma)[:, None]
+            v = np.where(held[None, :], a, v)
+        return tg, v
+
+    # ------------------------------------------------------------------ driver API
+    def _initial_mode(self, w, z, stuck):
+        stuck = np.zeros(self.n, bool) if stuck is None else np.asarray(stuck, bool)
+        mode = np.where(stuck, _CONTACT, _FREE)
+        mode[stuck & (w == 0.0) & (z == 0.0)] = _HELD
+        return mode
+
+    def _consistency(self, t, w, z, mode, events):
+        """Switch nodes whose configuration contradicts the state at t (e.g. an initial state)."""
+        free, cont = mode == _FREE, mode == _CONTACT
+        enter = np.flatnonzero(free & (z < 0.0) & ((w < 0.0) | (z < -self.time_tol)))
+        leave = np.flatnonzero(cont & (z > 0.0) & ((w > 0.0) | (z > self.time_tol)))
+        held = mode == _HELD
+        if enter.size or leave.size:
+            self._switch(t, w, z, mode, enter, leave, np.empty(0, int), events)
+        if held.any():
+            cfg = self._config(mode)
+            v = self._violation(t, w, z, mode, cfg, with_rate=False)
+            rel = np.flatnonzero(held & (v > 0.0))
+            if rel.size:
+                self._switch(t, w, z, mode, np.empty(0, int), np.empty(0, int), rel, events)
+
+    def _switch(self, t, w, z, mode, enter, leave, release, events):
+        """Apply the switches at time t in place, with the sticking rule; append event records."""
+        vs = self.stick_speed
+        a = None
+        if vs > 0.0 and (enter.size or leave.size):
+            held = mode == _HELD
+            a = self._Lmul(w, 1.0) + (math.sin(t) - 1.0 / self.Gamma)
+            del held
+        for j in enter:
+            wb = float(w[j])
+            if a is not None and abs(wb) <= vs and a[j] <= 0.0:
+                mode[j] = _HELD
+                w[j] = z[j] = 0.0
+                events.append((t, int(j), "stick", wb))
+            else:
+                mode[j] = _CONTACT
+                events.append((t, int(j), "impact", wb))
+        for j in leave:
+            wb = float(w[j])
+            if a is not None and abs(wb) <= vs and a[j] <= 0.0:
+                mode[j] = _HELD
+                w[j] = z[j] = 0.0
+                events.append((t, int(j), "stick", wb))
+            else:
+                mode[j] = _FREE
+                events.append((t, int(j), "liftoff", wb))
+        for j in release:
+            mode[j] = _FREE
+            w[j] = z[j] = 0.0
+            events.append((t, int(j), "liftoff", 0.0))
+
+    def _count_events(self, t, k):
+        dq = self._event_times
+        for _ in range(k):
+            dq.append(t)
+        while dq and dq[0] < t - 2.0 * math.pi:
+            dq.popleft()
+        if len(dq) > self.max_events * self.n:
+            raise RuntimeError(
+                f"soft integrator: more than max_events * n_nodes = {self.max_events * self.n} events "
+                f"within one forcing period 2*pi before t = {t:.15g} (chattering); raise stick_speed "
+                f"(now {self.stick_speed:g}) or max_events (now {self.max_events})")
+
+    def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
+        """Propagate from ``t`` to the next switch or to ``t_stop`` (see :meth:`Integrator.advance`).
+
+        Parameters
+        ----------
+        t : float
+        w, zeta : ndarray of float, shape (n_nodes,)
+        stuck : ndarray of bool, shape (n_nodes,) or None
+            Nodes in contact at ``t`` (soft contact or held; held nodes have
+            ``w = zeta = 0``).  ``None``: nobody.
+        t_stop : float
+        t_eval : array_like of float
+            Sorted output times; those in ``(t, t_new]`` are sampled (each is
+            reached by a full step, so samples carry the method's accuracy).
+
+        Returns
+        -------
+        Step
+            ``events`` holds the switches at ``Step.t`` (several when
+            simultaneous), ``stuck`` the nodes in contact after them.
+
+        Raises
+        ------
+        RuntimeError
+            More than ``max_events`` events per node within :math:`2\\pi`, or a
+            failed event search.
+        """
+        t = float(t)
+        t_stop = float(t_stop)
+        w = np.array(w, float)
+        z = np.array(zeta, float)
+        mode = self._initial_mode(w, z, stuck)
+        events = []
+        self._consistency(t, w, z, mode, events)
+        if events:
+            self._count_events(t, len(events))
+            return Step(t=t, w=w, zeta=z, events=events, stuck=mode != _FREE)
+        t_eval = np.asarray(t_eval, float).ravel()
+        k_eval = int(np.searchsorted(t_eval, t, side="right"))
+        samples = []
+        cfg = self._config(mode)
+        if self._h is None:
+            self._h = min(self.max_step, 0.1 * self.tau_c)
+        order = self._order
+        while True:
+            t_target = t_stop if k_eval >= t_eval.size else min(t_stop, t_eval[k_eval])
+            h = min(self._h, self.max_step, t_target - t)
+            last = h >= t_target - t
+            # step ends are floats and steps are their exact differences (no drift of t)
+            t_new = t_target if last else t + h
+            h = t_new - t
+            t_mid = t + 0.5 * h
+            hh, h2 = t_mid - t, t_new - t_mid
+            # trial step and two half steps (error estimate)
+            w1, z1, _, _ = self._step(t, h, w, z, cfg)
+            wa, za, Ywa, Yza = self._step(t, hh, w, z, cfg)
+            wb, zb, Ywb, Yzb = self._step(t_mid, h2, wa, za, cfg)
+            scale = self.atol + self.rtol * np.maximum(np.abs(np.concatenate((w, z))),
+                                                       np.abs(np.concatenate((wb, zb))))
+            err = float(np.max(np.abs(np.concatenate((w1 - wb, z1 - zb))) / scale))
+            if not np.isfinite(err):
+                raise RuntimeError(f"soft integrator: non-finite state at t = {t:.15g}")
+            if err > 1.0:
+                self.n_rejected += 1
+                self._h = h * max(0.1, 0.8 * err ** (-1.0 / (order + 1)))
+                if self._h < 1e-14 * max(1.0, abs(t)):
+                    raise RuntimeError(f"soft integrator: step size underflow at t = {t:.15g}")
+                continue
+            grow = 4.0 if err == 0.0 else min(4.0, max(0.2, 0.8 * err ** (-1.0 / (order + 1))))
+            if not last or h >= self._h:
+                self._h = h * grow
+            # scan both halves for crossings
+            v0 = np.minimum(self._violation(t, w, z, mode, cfg, with_rate=False), 0.0)
+            tga, va = self._grid_violation(t, hh, w, z, Ywa, Yza, mode)
+            tgb, vb = self._grid_violation(t_mid, h2, wa, za, Ywb, Yzb, mode)
+            tg = np.concatenate((tga[:-1], [t_mid], tgb[:-1], [t_new]))
+            vg = np.vstack((v0[None, :], va[:-1], self._violation(t_mid, wa, za, mode, cfg, False)[None, :],
+                            vb[:-1], self._violation(t_new, wb, zb, mode, cfg, False)[None, :]))
+            tg = np.concatenate(([t], tg))
+            pos = vg > 0.0
+            hit = pos.any(axis=0)
+            if hit.any():
+                first = np.argmax(pos, axis=0)
+                nodes = np.flatnonzero(hit)
+                kmin = first[nodes].min()
+                cand = nodes[first[nodes] == kmin]
+                lo, hi = vg[kmin - 1, cand], vg[kmin, cand]
+                guess = tg[kmin - 1] + (tg[kmin] - tg[kmin - 1]) * (-lo) / (hi - lo)
+                j = int(cand[np.argmin(guess)])
+                h_guess, h_hi = float(guess.min()) - t, float(tg[kmin]) - t
+                for _ in range(4 * self.n + 4):
+                    he, we, ze = self._locate(t, w, z, mode, cfg, j, h_guess, h_hi)
+                    ev, early, dt_early = self._simultaneous(t + he, we, ze, mode, cfg, j)
+                    if early < 0:
+                        break
+                    j, h_hi, h_guess = early, he, he - dt_early
+                else:
+                    raise RuntimeError(f"soft integrator: switch search stalled after t = {t:.15g}; "
+                                       "try a smaller max_step")
+                # the switch happens at the real time t + he; report the float te = fl(t + he) and
+                # move the post-switch state along the post-switch flow by te - (t + he) (|.| <= ulp)
+                te = t + he
+                delta = -((t - (te - (te - t))) + (he - (te - t)))     # te - (t + he), exact (TwoSum)
+                if k_eval < t_eval.size and t_eval[k_eval] <= te:
+                    samples.append((float(t_eval[k_eval]), we.copy(), ze.copy()))
+                    k_eval += 1
+                enter = ev[mode[ev] == _FREE]
+                leave = ev[mode[ev] == _CONTACT]
+                release = ev[mode[ev] == _HELD]
+                self._switch(te, we, ze, mode, enter, leave, release, events)
+                if delta != 0.0:
+                    cfg = self._config(mode)
+                    dw, dz = self._rhs(t + he, we, ze, cfg)
+                    we, ze = we + delta * dw, ze + delta * dz
+                self._count_events(te, len(events))
+                return Step(t=te, w=we, zeta=ze, samples=samples, events=events, stuck=mode != _FREE)
+            # accept the two half steps (the more accurate value)
+            t, w, z = t_new, wb, zb
+            if k_eval < t_eval.size and t_eval[k_eval] == t:
+                samples.append((t, w.copy(), z.copy()))
+                k_eval += 1
+            if t >= t_stop:
+                return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
+
+    # ------------------------------------------------------------ event location
+    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi):
+        """Safeguarded Newton in the step size h for the crossing of node j in (0, h_hi].
+
+        Every evaluation is a full collocation step from ``t0``; h is kept relative to ``t0``, so the
+        switch is located to the precision of h (not of t).  Returns (h, w, zeta) at the crossing.
+        """
+        lo, hi = 0.0, h_hi
+        hk = min(max(guess, 0.0), h_hi)
+        best = None
+        for _ in range(60):
+            if hk <= 0.0:
+                hk = 0.5 * hi
+            we, ze, _, _ = self._step(t0, hk, w0, z0, cfg)
+            v, dv = self._violation(t0 + hk, we, ze, mode, cfg)
+            vj, dvj = float(v[j]), float(dv[j])
+            if vj > 0.0:
+                hi = hk
+            else:
+                lo = hk
+            corr = -vj / dvj if dvj > 0.0 else math.inf
+            if best is None or abs(corr) < best[0]:
+                best = (abs(corr), hk, we, ze)
+            tol = max(1e-3 * self.time_tol * 1e-1, 4.0 * math.ulp(hk))
+            if abs(corr) <= tol or hi - lo <= tol:
+                return best[1], best[2], best[3]
+            hn = hk + corr
+            if not (lo < hn < hi) or not math.isfinite(hn):
+                hn = 0.5 * (lo + hi)
+            hk = hn
+        raise RuntimeError(f"soft integrator: switch search of node {j} stalled near t = {t0 + hk:.15g} "
+                           f"(bracket width {hi - lo:.3g}); try a smaller max_step or time_tol")
+
+    def _simultaneous(self, te, we, ze, mode, cfg, j):
+        """Nodes switching at te: j and every node whose crossing lies within time_tol of te.
+
+        Returns (nodes, early, dt): ``early`` >= 0 is a node that crossed more than time_tol before
+        te (the earliest such, ``dt`` before te), else -1.
+        """
+        v, dv = self._violation(te, we, ze, mode, cfg)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dt = np.where(dv > 0.0, v / dv, np.where(v > 0.0, np.inf, -np.inf))   # te - t_cross
+        dt[j] = 0.0
+        early = (dt > self.time_tol) & (v > 0.0)
+        if early.any():
+            k = int(np.argmax(np.where(early, dt, -np.inf)))
+            return None, k, (float(dt[k]) if np.isfinite(dt[k]) else 0.5 * 0.0)
+        return np.flatnonzero(np.abs(dt) <= self.time_tol), -1, 0.0
