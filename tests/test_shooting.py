@@ -274,7 +274,8 @@ def test_ode_method_finds_the_same_cycle(coarse, coarse_orbit):
 
 @pytest.mark.slow
 def test_soft_flat_orbit_and_multipliers_match_per_mode_monodromy():
-    from tps_solver.fda.regularised import SoftFlatOrbit, lattice_eigenvalues
+    from tps_solver.flat_soft import SoftFlatOrbit
+    from tps_solver.lattice import lattice_eigenvalues
 
     ell = 0.3
     lat = tps.Lattice.planar(n_nodes=3, length=1.0)

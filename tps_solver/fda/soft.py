@@ -78,10 +78,10 @@ import mpmath
 import numpy as np
 from scipy.linalg import lapack
 
-from .._validation import check_int, check_positive
+from .._checks import check_int, check_positive
 from .base import Integrator, Step
 from .lattice import Lattice
-from .regularised import soft_contact_parameters
+from ..flat_soft import soft_contact_parameters
 
 __all__ = ["SoftIntegrator", "radau_iia"]
 
