@@ -16,7 +16,9 @@ Public API (see ``README.md`` for a tour):
 * :func:`simulate`, :data:`METHODS` -- the event-driven FDA, eqs. (51)-(63);
 * :class:`SoftFlatOrbit` -- the flat layer of the soft-contact model;
 * :class:`PeriodicOrbit`, :data:`STATUS` -- the vocabulary of every periodic result;
-* :func:`check_stability` -- hands a limit cycle to the FDA.
+* :func:`check_stability` -- hands a limit cycle to the FDA;
+* :func:`find_periodic_orbit` -- periodic orbits of any contact pattern by shooting;
+* :func:`continue_branch`, :class:`Branch` -- continuation with folds and period doublings.
 
 See ``ARCHITECTURE.md`` for the layers and what each module owns.
 
@@ -47,6 +49,10 @@ _LAZY = {
     "SimulationResult": "fda",
     "check_stability": "limit_cycles",
     "StabilityResult": "limit_cycles",
+    "find_periodic_orbit": "shooting",
+    "continue_branch": "continuation",
+    "Branch": "continuation",
+    "load_branch": "continuation",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

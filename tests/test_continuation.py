@@ -1,0 +1,123 @@
+"""Pseudo-arclength continuation: folds and period doublings against closed forms and the exact cycle."""
+import math
+
+import numpy as np
+import pytest
+
+import tps_solver as tps
+from tps_solver.continuation import continue_branch, load_branch
+
+
+@pytest.fixture(scope="module")
+def flat_branch():
+    return continue_branch(tps.FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 3.2), bothsides=True)
+
+
+def test_flat_branch_finds_the_stability_window_to_1e8(flat_branch):
+    lo, hi = tps.FlatLayer.stability_window(0.45, 2)
+    kinds = dict(flat_branch.special_points)
+    assert set(kinds) == {"fold", "period_doubling"}
+    assert abs(kinds["fold"] - lo) <= 1e-8
+    assert abs(kinds["period_doubling"] - hi) <= 1e-8
+    # the fold is the saddle-node of (19): Gamma_SN = s pi M exactly
+    assert abs(kinds["fold"] - (0.55 / 1.45) * math.pi * 2) <= 1e-8
+
+
+def test_flat_branch_stability_matches_flatlayer_pointwise(flat_branch):
+    for G, t0, stable in zip(flat_branch.parameter_values, flat_branch.states[:, 0], flat_branch.stable):
+        fl = tps.FlatLayer(G, 2, t0=t0)
+        assert abs(fl.e - 0.45) < 1e-9                    # the point solves (19) at the fixed e
+        assert bool(stable) == bool(fl.is_stable)
+    # both sides of the fold are on the branch: t0 changes sign there
+    assert flat_branch.states[:, 0].min() < 0.0 < flat_branch.states[:, 0].max()
+
+
+def test_flat_branch_in_e():
+    br = continue_branch(tps.FlatLayer(2.5, 2, e=0.45), "e", (0.3, 0.6), bothsides=True)
+    kinds = dict(br.special_points)
+    # period doubling at e where the window's upper end is 2.5
+    e_pd = kinds["period_doubling"]
+    assert abs(tps.FlatLayer.stability_window(e_pd, 2)[1] - 2.5) < 1e-7
+    # fold where Gamma = s(e) pi M = 2.5
+    s = 2.5 / (2 * math.pi)
+    assert abs(kinds["fold"] - (1 - s) / (1 + s)) < 1e-8
+
+
+@pytest.fixture(scope="module")
+def cycle():
+    lat = tps.Lattice.planar(n_nodes=8, length=140.0)
+    return tps.solve_lattice_cycle(lat, Gamma=2.5, M=2, e=0.45, t0=None)
+
+
+def test_lattice_cycle_branch_passes_the_fold_in_spacing(cycle):
+    br = continue_branch(cycle, "spacing", (8.0, 30.0), direction=-1, multipliers=False)
+    folds = [v for k, v in br.special_points if k == "fold"]
+    assert len(folds) == 1
+    # the exact cycle's fold, measured before by natural continuation in the coupling: 13.6 +- 0.5 %
+    assert abs(folds[0] - 13.6) / 13.6 < 0.01
+    # the branch comes back: the spacing decreases to the fold, then increases past the start
+    p = br.parameter_values
+    i = int(np.argmin(p))
+    assert p[i] < 13.7 and p[-1] > 20.0 and np.all(np.diff(p[:i + 1]) < 0) and np.all(np.diff(p[i:]) > 0)
+    # every point is a solution of the exact cycle's contact condition on the scaled lattice
+    for tc, h in zip(br.states[::7], p[::7]):
+        lat = tps.Lattice(cycle.lattice.nodes * h / 20.0, "planar", "neumann")
+        res = tps.solve_lattice_cycle(lat, Gamma=2.5, M=2, e=0.45, t0=None, tc_initial=tc, continuation=False)
+        assert res.converged and res.nit == 0
+
+
+def test_the_multiplier_passes_plus_one_at_the_fold(cycle):
+    br = continue_branch(cycle, "spacing", (8.0, 30.0), direction=-1, multipliers=False)
+    fold = next(d for d in br.special_details if d["kind"] == "fold")
+    i = fold["index"]
+    before, after = br.states[i - 1], br.states[i + 1]
+    mu = []
+    for tc, h in ((before, br.parameter_values[i - 1]), (after, br.parameter_values[i + 1])):
+        lat = tps.Lattice(cycle.lattice.nodes * h / 20.0, "planar", "neumann")
+        cyc = tps.solve_lattice_cycle(lat, Gamma=2.5, M=2, e=0.45, t0=None, tc_initial=tc, continuation=False)
+        orb = tps.find_periodic_orbit(lat, Gamma=2.5, M=2, e=0.45, guess=cyc)
+        mu.append(float(np.max(np.abs(orb.multipliers))))
+    assert mu[0] < 1.0 < mu[1]
+
+
+def test_branch_save_load_round_trip(flat_branch, tmp_path):
+    path = flat_branch.save(tmp_path / "branch")
+    assert path.endswith(".npz")
+    again = load_branch(tmp_path / "branch")
+    assert again.special_points == flat_branch.special_points
+    np.testing.assert_array_equal(again.parameter_values, flat_branch.parameter_values)
+    np.testing.assert_array_equal(again.stable, flat_branch.stable)
+    fig = again.plot(tmp_path / "branch.png")
+    ax = fig.axes[0]
+    assert ax.get_xlabel() and ax.get_ylabel() and ax.get_title()
+    assert (tmp_path / "branch.png").stat().st_size > 0
+
+
+def test_load_branch_refuses_foreign_files(tmp_path):
+    np.savez(tmp_path / "other.npz", a=np.arange(3))
+    with pytest.raises(ValueError, match="not a tps_solver branch"):
+        load_branch(tmp_path / "other.npz")
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="readable"):
+        load_branch(tmp_path / "junk.npz")
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(bounds=None), "bounds"),
+    (dict(bounds=(3.0, 2.0)), "bounds"),
+    (dict(bounds=(2.6, 3.0)), "bounds"),          # does not contain the start
+    (dict(bounds=(2.0, float("nan"))), "bounds"),
+    (dict(bounds=(2.0, 3.0), step=0.0), "step"),
+    (dict(bounds=(2.0, 3.0), step=-1.0), "step"),
+    (dict(bounds=(2.0, 3.0), parameter="cutoff"), "parameter"),
+    (dict(bounds=(2.0, 3.0), direction=0), "direction"),
+])
+def test_bad_input(kw, name):
+    kw = dict(dict(parameter="Gamma"), **kw)
+    with pytest.raises(ValueError, match=name):
+        continue_branch(tps.FlatLayer(2.5, 2, e=0.45), **kw)
+
+
+def test_bad_start():
+    with pytest.raises(ValueError, match="start"):
+        continue_branch("a flat layer", "Gamma", (2.0, 3.0))
