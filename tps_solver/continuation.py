@@ -118,7 +118,7 @@ class Branch(Bunch):
         return path
 
     def plot(self, path=None, ax=None):
-        """Draw max|mu| against the parameter (solid: stable, dashed: unstable) with the special points.
+        """Draw max|mu| against the parameter (points marked stable or unstable) with the special points.
 
         Parameters
         ----------
@@ -138,9 +138,9 @@ class Branch(Bunch):
             fig = ax.figure
         p = self.parameter_values
         rho = np.nanmax(np.abs(self.multipliers), axis=1) if self.multipliers.size else np.full(p.size, np.nan)
-        for mask, style, label in ((self.stable, "-", "stable"), (~self.stable, "--", "unstable")):
-            y = np.where(mask, rho, np.nan)
-            ax.plot(p, y, style, color="C0", label=label)
+        ax.plot(p, rho, "-", color="0.7", lw=0.8)
+        for mask, style, label in ((self.stable, "o", "stable"), (~self.stable, "x", "unstable")):
+            ax.plot(p[mask], rho[mask], style, ms=3, color="C0" if label == "stable" else "C1", label=label)
         for kind, value in self.special_points:
             ax.axvline(value, color="C3" if kind == "fold" else "C2", lw=0.8, ls=":")
             ax.annotate(kind.replace("_", " "), (value, 1.0), rotation=90, fontsize=7, va="bottom")
