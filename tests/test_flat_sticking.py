@@ -15,8 +15,8 @@ from scipy import integrate
 
 import tps_solver as tps
 from tps_solver import sticking
-from validation.flat_sticking import (measure, quad_harmonics, reference_orbit,
-                                      reference_touch_landings)
+from validation.flat_sticking import (measure, quad_harmonics, reference_height, reference_orbit,
+                                      reference_touch_landings, reference_velocity)
 
 SQRT_PI2_4 = math.sqrt(math.pi ** 2 + 4.0)
 
@@ -94,6 +94,18 @@ def test_chatter_tail_bound_holds_and_is_not_vacuous():
             assert err >= 1e-3 * bound        # the bound is within 3 decades of the truth
     fl = tps.FlatLayer(G, 2, e=e, pattern="stick")
     assert fl.events[-1][1] == "stick" and fl.chatter_error <= 1e-14
+    # inside the summed tail: velocity and height of the constant-g chatter vs the resolved reference
+    (_, a, b, (v, gam, _, _)) = [s for s in fl._orbit.segments if s[0] == "tail"][0]
+    ev_ref, flights = reference_orbit(G, e, 2)
+    t = np.linspace(a, b, 41)[1:-1]
+    hits = np.array([float(x) for x, k in ev_ref if k == "impact"])
+    t = t[np.min(np.abs(t[:, None] - hits[None, :]), axis=1) > 1e-13]   # away from the jumps
+    assert t.size > 30
+    wr = np.array([float(x) for x in reference_velocity(flights, G, t)])
+    zr = np.array([float(x) for x in reference_height(flights, G, t)])
+    assert np.max(np.abs(wr)) > 0.1 * v and np.max(zr) > 0.01 * v * v / gam
+    assert np.max(np.abs(fl.velocity(t) - wr)) <= 1e-5 * v
+    assert np.max(np.abs(fl.height(t) - zr)) <= 1e-4 * v * v / gam
     assert fl.contact_sequence == "BC"     # one rebound, then a chatter sequence to rest
     impacts = [t for t, k in fl.events if k == "impact"]
     assert g(impacts[0], G) > 0 and all(g(t, G) < 0 for t in impacts[1:])
