@@ -69,7 +69,7 @@ class _Band:
         m = M.shape[0]
         rows, cols = np.nonzero(M)
         count = np.bincount(rows, minlength=m)
-        width = max(int(count.max(initial=0)), 1)
+        width = int(count.max(initial=0))
         start = np.concatenate(([0], np.cumsum(count)[:-1]))
         slot = np.arange(rows.size) - start[rows]
         self.cols = np.zeros((m, width), dtype=np.int64)
@@ -125,6 +125,8 @@ class _FreeSet:
         factors = [np.where(zero, G if m == 1 else 1.0, (m + 1) * G * big ** (m - 1)) for m in (1, 2, 3)]
         self.forcing = md.absV @ np.column_stack([fm * abs_s for fm in factors])
         self.lam12 = np.column_stack((self.abs_lam, self.abs_lam ** 2))
+        self.absV_T = np.ascontiguousarray(self.absV.T)
+        self.forcing_T = np.ascontiguousarray(self.forcing[:, :2].T)
         self.L_FF = _Band(md.L_FF)
         self.L_SF = _Band(md.L_SF)
 
@@ -389,6 +391,8 @@ class PointIntegrator(Integrator):
             self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
                                                           np.cbrt(6.0 * eps_z / jerk[rel]))
         release = self._guard[F] - t0
+        guarded = bool(np.any(release > 0.0))
+        fv, dv = np.empty((2, nf)), np.empty((2, nf))
         seg = _Segment(fs, a, zeta0, t0, Gamma)
         steps = 0
         while True:
@@ -405,12 +409,16 @@ class PointIntegrator(Integrator):
                 decay = abs_a
             g = math.sin(t_now) - 1.0 / Gamma
             accF = fs.L_FF.dot(wF) + g
-            AB = fs.absV @ (fs.lam12 * decay[:, None]) + fs.forcing[:, :2]
-            A, B = AB[:, 0], AB[:, 1]
-            h_contact = _safe_step(zF, wF, A)
-            # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
-            h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
-            h_contact = np.maximum(np.maximum(h_contact, h_rise), release - tau)
+            AB = (fs.lam12 * decay[:, None]).T @ fs.absV_T + fs.forcing_T
+            A, B = AB[0], AB[1]
+            # safe steps of the heights (row 0) and, for rising nodes (w >= 0 to round-off), of
+            # the velocities' lower bound (row 1): one pass over both
+            fv[0], fv[1] = zF, wF
+            dv[0], dv[1] = wF, accF
+            h2 = _safe_step(fv, dv, AB)
+            h_contact = np.maximum(h2[0], np.where(wF >= -eps_w, h2[1], 0.0))
+            if guarded:
+                h_contact = np.maximum(h_contact, release - tau)
             if has_stuck:
                 # lift-off candidates: f = -a for stuck nodes
                 accS = g + fs.L_SF.dot(wF)
