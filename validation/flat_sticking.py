@@ -6,7 +6,7 @@ The reference here shares no code with :mod:`tps_solver.sticking`:
   chatter) with the flight in the paper's *first* form of (17)-(18),
   :math:`\zeta = (v + \cos a)(t - a) + \sin a - \sin t - (t - a)^2/2\Gamma`;
 * a landing is located by dense sampling of :math:`\zeta` (step ``2e-3``, or
-  1/400 of the constant-g estimate :math:`2v/|g|` for short bounces) and
+  1/50 of the constant-g estimate :math:`2v/|g|` for short bounces) and
   refined by the bracketing ``illinois`` solver (bisection if it leaves its
   bracket) at full precision (no monotone-piece argument, no Newton polish);
 * a chatter sequence is followed bounce by bounce until the rebound speed is
@@ -66,8 +66,8 @@ def _landing(a, v, G, horizon):
     """First t in (a, a + horizon] with zeta = 0, by dense sampling + illinois (mpmath)."""
     g_a = mp.sin(a) - 1 / G
     if v > 0 and g_a < 0 and 2 * v / -g_a < 0.2:      # a short bounce: sample in mpmath
-        h = 2 * v / -g_a / 100
-        ts = [a + i * h for i in range(1, 401)]       # up to 4x the constant-g estimate
+        h = 2 * v / -g_a / 50
+        ts = [a + i * h for i in range(1, 201)]       # up to 4x the constant-g estimate
         zs = [_z(a, v, G, t) for t in ts]
     else:                                             # sample in floating point, step 2e-3
         h = 2e-3
