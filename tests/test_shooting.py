@@ -62,7 +62,7 @@ def test_multipliers_agree_with_check_stability(coarse, coarse_orbit):
     lat, cyc = coarse
     orb = coarse_orbit
     assert orb.differentiable and orb.multipliers_kind == "all (dense)" and orb.multipliers.size == 16
-    chk = tps.check_stability(cyc, periods=6, jacobian=True)
+    chk = tps.check_stability(cyc, periods=2, jacobian=True)
     assert chk.differentiable
     k = 6
     a = np.sort_complex(orb.multipliers[:k])
@@ -71,6 +71,15 @@ def test_multipliers_agree_with_check_stability(coarse, coarse_orbit):
     assert abs(abs(orb.multipliers[0]) - 0.457) < 1e-3
     assert np.all(np.diff(np.abs(orb.multipliers)) <= 1e-12)          # by decreasing modulus
     assert not orb.neutral
+
+
+def test_arnoldi_leading_multipliers_match_the_dense_spectrum(coarse, coarse_orbit):
+    lat, _ = coarse
+    o = coarse_orbit
+    orb = find_periodic_orbit(lat, Gamma=G, M=M, e=E, guess=o, dense_max=0, n_multipliers=4)
+    assert orb.converged and orb.multipliers_kind == "leading (Arnoldi)" and orb.multipliers.size == 4
+    assert np.max(np.abs(np.abs(orb.multipliers) - np.abs(o.multipliers[:4]))) < 1e-5
+    assert np.max(np.abs(np.sort_complex(orb.multipliers) - np.sort_complex(o.multipliers[:4]))) < 1e-5
 
 
 def test_unstable_cycle_defect_grows_like_leading_multiplier():

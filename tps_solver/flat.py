@@ -190,38 +190,74 @@ def _next_impact(t_start, v, Gamma, horizon):
 
 
 class FlatLayer:
-    r"""The T-periodic bouncing flat layer, eqs. (17)-(19).
+    r"""The T-periodic flat layer: the bouncing orbit (17)-(19), or sticking and touch-and-go orbits.
 
     Parameters
     ----------
     Gamma : float
         Dimensionless plate acceleration :math:`\Gamma = A\omega^2/g_0 > 0`.
-    M : int
-        Subharmonic order, period :math:`T = 2\pi M`.
+    M : int, optional
+        Subharmonic order, period :math:`T = 2\pi M` (default 2; integral
+        floats such as 2.0 are accepted).
     e : float, optional
         Restitution in [0, 1).  Exactly one of ``e`` and ``t0`` is normally
         given; if both are, they must satisfy (19).
     t0 : float, optional
-        Launch (contact) phase.  The paper's preset is ``t0 = 0``, which fixes
-        ``e`` through (19) and sits exactly at the fold of the flat orbit.
+        Launch (contact) phase of the single-bounce orbit.  The paper's preset
+        is ``t0 = 0``, which fixes ``e`` through (19) and sits exactly at the
+        fold of the flat orbit.  Only with ``pattern`` "auto" or "bounce".
     branch : {"stable", "unstable"}, optional
-        With ``e`` given: ``"stable"`` selects :math:`t_0 = +\arccos(sT/2\Gamma)`
-        (stable inside :meth:`stability_window`), ``"unstable"`` the saddle
-        :math:`t_0 < 0`.  Ignored (but checked) when ``t0`` is given.
+        Single-bounce orbit with ``e`` given: ``"stable"`` selects
+        :math:`t_0 = +\arccos(sT/2\Gamma)` (stable inside
+        :meth:`stability_window`), ``"unstable"`` the saddle :math:`t_0 < 0`.
+        Ignored (but checked) when ``t0`` is given.  For ``pattern="touch"``
+        it picks a touch-and-go orbit with |multiplier| < 1 (the smallest) or
+        >= 1 (the largest); a sticking orbit is unique and always "stable".
+    pattern : {"auto", "bounce", "stick", "touch"}, optional
+        Which periodic orbit (see :mod:`tps_solver.sticking` for the physics):
+
+        * ``"bounce"``: one impact per period with rebound, (17)-(19);
+        * ``"stick"``: the orbit through a lift-off (at :math:`\sin t =
+          1/\Gamma`, :math:`\cos t > 0`) that lands to rest -- directly for
+          ``e = 0``, at the end of a chatter sequence for ``e > 0`` -- and
+          lifts off again exactly M periods later; touch-and-go contacts
+          (``e = 0``) and rebounds (``e > 0``) may come before;
+        * ``"touch"`` (``e = 0`` only): touch-and-go contacts only, no stick;
+        * ``"auto"`` (default): ``"bounce"`` where it exists and is
+          admissible, exactly as before.  For ``e = 0`` only, where it does
+          not, the ``"stick"`` orbit if it exists, else a stable ``"touch"``
+          orbit.  For ``e > 0`` "auto" never falls back (it raises as the
+          single-bounce constructor always did, so code that enumerates
+          bounce orbits by catching ``ValueError`` keeps working); ask for
+          ``pattern="stick"`` explicitly.
 
     Attributes
     ----------
-    Gamma, e, t0, period, W0 : float
+    Gamma, e, period : float
+    t0 : float
+        Single bounce: the impact phase.  Stick: the lift-off phase
+        :math:`\arcsin(1/\Gamma)`.  Touch: the phase of one touch-and-go
+        contact (the smallest mod :math:`2\pi`).
+    W0 : float
+        Velocity right after ``t0``: the post-impact velocity of (19), or 0
+        (the node leaves from rest) for "stick" and "touch".
     M : int
+    pattern : str
+        "bounce", "stick" or "touch".
     branch : str
-        ``"stable"`` if ``t0 >= 0`` else ``"unstable"``.
+        Single bounce: ``"stable"`` if ``t0 >= 0`` else ``"unstable"``.
+        Otherwise ``"stable"`` iff the multipliers lie inside the unit circle.
+    events : list of (float, str)
+        See :attr:`events`.
 
     Raises
     ------
     ValueError
-        If a parameter is out of range, no periodic orbit exists
-        (:math:`sT/2\Gamma > 1`), or the orbit touches the plate before the
-        period ends (inadmissible).
+        If a parameter is out of range, or the requested orbit does not exist
+        (single bounce: :math:`sT/2\Gamma > 1`, or the orbit touches the plate
+        before the period ends; "stick": the orbit through a lift-off does not
+        return to rest after exactly M periods).  The message says which
+        patterns do exist for the parameters.
 
     Examples
     --------
@@ -231,6 +267,11 @@ class FlatLayer:
     >>> fl = FlatLayer(Gamma=2.5, M=2, t0=0.0)      # the paper's preset
     >>> round(fl.e, 4)
     0.4307
+    >>> fl = FlatLayer(Gamma=4.1, e=0.0)            # completely inelastic: touch-and-go, then stick
+    >>> fl.pattern, fl.contact_sequence, [k for _, k in fl.events]
+    ('stick', 'TS', ['liftoff', 'impact', 'liftoff', 'impact', 'stick'])
+    >>> fl.floquet_multipliers()
+    array([0.+0.j, 0.+0.j])
     """
 
     def __init__(self, Gamma, M=2, e=None, t0=None, branch="stable", pattern="auto"):

@@ -78,6 +78,11 @@ class PeriodicOrbit(Bunch):
     residual : float
         :math:`\max|P(x) - x|` at the returned state.
     residual_history : ndarray of float, shape (nit + 1,)
+    step_lengths, gmres_residuals : ndarray of float, shape (nit,)
+        Per Newton step: the accepted line-search factor (0: none accepted) and the relative
+        residual GMRES reached.
+    gmres_products : ndarray of int, shape (nit,)
+        Jacobian--vector products (period maps) of each GMRES solve.
     nit : int
         Newton steps taken.
     n_period_maps : int
@@ -92,7 +97,9 @@ class PeriodicOrbit(Bunch):
         :math:`T = 2\pi M`.
     multipliers : ndarray of complex
         Leading Floquet multipliers by decreasing modulus; empty where undefined (not
-        converged, not computed, or the map is not differentiable at the orbit).
+        converged, not computed, or the map is not differentiable at the orbit).  They are
+        those of the free coordinates at the section; each node stuck there adds two
+        multipliers 0, which are not listed.
     multipliers_kind : str
         ``"all (dense)"``, ``"leading (Arnoldi)"`` or ``"none"``; the reason is in ``message``.
     differentiable : bool or None
@@ -351,7 +358,7 @@ def _intervals(events, stuck0, t0, t1, method, tau_c=None):
 
 def _choose_section(pmap_factory, w, z, stuck, t_g, T, method, n_grid=512):
     """Move the section within one period to the time with the fewest stuck nodes and the
-    largest distance to any event.  Returns (w, z, stuck, t_s, clearance)."""
+    largest distance to any event.  Returns (w, z, stuck, t_s, clearance, period maps used)."""
     pm = pmap_factory(t_g, stuck)
     ts = t_g + T * np.arange(1, n_grid) / n_grid
     x = pm.pack(w, z)
@@ -543,6 +550,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         return _PeriodMap(lattice, Gamma, e, T, t_s, st, method, kw, max_events_per_period)
 
     history = []
+    steps = []                      # (line-search step length, GMRES relative residual, products)
     n_maps = 0
     clearance = float("nan")
     status, message = None, ""
@@ -552,6 +560,9 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         out = PeriodicOrbit(converged=status == 0, success=status == 0, status=status,
                             status_text=STATUS[status], message=message, residual=float(F_res),
                             residual_history=np.asarray(history, dtype=float), nit=nit,
+                            step_lengths=np.array([r[0] for r in steps], dtype=float),
+                            gmres_residuals=np.array([r[1] for r in steps], dtype=float),
+                            gmres_products=np.array([r[2] for r in steps], dtype=int),
                             n_period_maps=n_maps + (pm.count if pm is not None else 0),
                             t_start=float(t_s), period=T, lattice=lattice, Gamma=Gamma, M=M, e=e,
                             method=method, cutoff=cutoff, section_clearance=clearance,
@@ -628,6 +639,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
                     break
                 lam *= 0.5
             nit += 1
+            steps.append((lam if accepted else 0.0, rel, used))
             if not accepted:
                 status = 2
                 message = (f"Newton stagnated at step {nit}: no decrease of |P(x) - x| along the Newton "
@@ -659,11 +671,10 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         out.message = message
     elif status == 4:
         out.message = message + "; try another method, a smaller time_tol or a guess closer to the orbit"
-    if status in (0, 1, 2, 3, 4, 6) or status == 5:
-        try:
-            _pattern(out, pm, x, simultaneity)
-        except (_MapError, KeyboardInterrupt) as exc:
-            notes.append(f"contact pattern not evaluated ({type(exc).__name__})")
+    try:
+        _pattern(out, pm, x, simultaneity)
+    except (_MapError, KeyboardInterrupt) as exc:
+        notes.append(f"contact pattern not evaluated ({type(exc).__name__})")
     if status == 0 and multipliers:
         try:
             _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_multipliers,
@@ -672,7 +683,6 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
             notes.append(f"multipliers not computed: {exc.message}")
         except KeyboardInterrupt:
             notes.append("multipliers interrupted (KeyboardInterrupt): not computed")
-        out.n_period_maps = n_maps + pm.count
     out.n_period_maps = n_maps + pm.count
     return _finish(out, notes, start_clock)
 
@@ -774,7 +784,7 @@ def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, d
         op = LinearOperator((2 * m, 2 * m), matvec=jv, dtype=float)
         ncv = min(2 * m, max(2 * k + 1, 20))
         try:
-            mu = eigs(op, k=k, which="LM", ncv=ncv, tol=1e-8, maxiter=50,
+            mu = eigs(op, k=k, which="LM", ncv=ncv, tol=1e-8, maxiter=50, return_eigenvectors=False,
                       v0=rng.standard_normal(2 * m)).astype(complex)
         except ArpackNoConvergence as exc:
             mu = np.asarray(exc.eigenvalues, dtype=complex)

@@ -520,8 +520,11 @@ def touch_orbits(Gamma, M, n_scan=160):
     j-th landing) bracketed by a sign change is refined by ``brentq`` and kept
     if :math:`|F_j| < 10^{-9}` there (rejecting jumps of the landing map at
     grazing flights), every landing before is a touch-and-go, and the orbit
-    has no shorter period.  Orbits separated by less than the scan step may be
-    missed.
+    has no shorter period (a contact within 1e-6 periods of a whole period
+    after the launch counts as a shorter period: near a flip, where the root
+    of :math:`F_j` is ill-conditioned, this rejects the parent orbit; a
+    genuine orbit within about 1e-12 in Gamma of its flip is rejected too).
+    Orbits separated by less than the scan step may be missed.
 
     Returns
     -------
@@ -571,7 +574,7 @@ def touch_orbits(Gamma, M, n_scan=160):
             times = [phi] + L[:j + 1]
             if any(gravity(t, Gamma) <= 0.0 for t in times):
                 continue
-            shorter = any(abs((t - phi) / _TWO_PI - round((t - phi) / _TWO_PI)) < 1e-9
+            shorter = any(abs((t - phi) / _TWO_PI - round((t - phi) / _TWO_PI)) < 1e-6
                           and 0 < round((t - phi) / _TWO_PI) < M for t in L[:j])
             if shorter:
                 continue

@@ -69,7 +69,7 @@ class _Band:
         m = M.shape[0]
         rows, cols = np.nonzero(M)
         count = np.bincount(rows, minlength=m)
-        width = max(int(count.max(initial=0)), 1)
+        width = int(count.max(initial=0))
         start = np.concatenate(([0], np.cumsum(count)[:-1]))
         slot = np.arange(rows.size) - start[rows]
         self.cols = np.zeros((m, width), dtype=np.int64)
@@ -97,70 +97,111 @@ class _FreeSet:
         self.nf = md.index.size
         self.lam, self.abs_lam = md.lam, md.abs_lam
         self.V, self.Vinv, self.absV = md.V, md.Vinv, md.absV
-        self.forced = md.forced
-        self.lam_forced = md.lam[md.forced]
-        self.s_forced = md.s[md.forced]
-        self.s_masked = np.zeros(self.nf)
-        self.s_masked[md.forced] = self.s_forced
-        self.resolvent = np.zeros(self.nf, dtype=complex)
-        self.resolvent[md.forced] = 1.0 / (1j - self.lam_forced)
+        s = md.s.copy()
+        L_FF = md.L_FF
+        # with no stuck neighbour (zero row sums of L_FF) sigma_F is a null vector of L_FF, so
+        # gravity forces the zero modes only: the other projections of V^{-1} 1 are round-off
+        if np.all(np.abs(L_FF.sum(axis=1)) <= 64 * _EPS * np.abs(L_FF).sum(axis=1)):
+            s[self.lam != 0.0] = 0.0
+        forced = np.zeros(self.nf, dtype=bool)
+        forced[md.forced] = True
+        s[~forced] = 0.0
+        self.s = s
+        self.zero_only = bool(np.all(self.lam[s != 0.0] == 0.0))
+        self.zero = (self.lam == 0.0).astype(float)
+        self.lam_safe = np.where(self.lam == 0.0, 1.0, self.lam)
+        res = np.zeros(self.nf, dtype=complex)
+        res[forced] = 1.0 / (1j - self.lam[forced])
+        self.s_re, self.s_im = s * res.real, s * res.imag
+        # [V | V (s Re r) | V (s Im r) | V s / Gamma]: the scalar-coefficient part of the flight
+        self.VP = np.column_stack((self.V, self.V @ np.column_stack((self.s_re, self.s_im, s / Gamma))))
         G = 1.0 + 1.0 / Gamma
         big = np.maximum(1.0, self.abs_lam)
-        abs_s = np.abs(md.s)
-        # time-independent forcing part of the derivative bounds D_1, D_2, D_3
-        self.forcing = md.absV @ np.column_stack([(m + 1) * G * big ** (m - 1) * abs_s for m in (1, 2, 3)])
+        abs_s = np.abs(s)
+        zero = self.lam == 0.0
+        # time-independent forcing part of the derivative bounds D_1, D_2, D_3: the m-th derivative
+        # of s W_lam is bounded by (m + 1) G max(1, |lam|)^(m-1) |s| (|g^(p)| <= G = 1 + 1/Gamma), and
+        # for a zero mode W^(m) = g^(m-1) exactly, so by G |s| (m = 1) and |s| (m >= 2)
+        factors = [np.where(zero, G if m == 1 else 1.0, (m + 1) * G * big ** (m - 1)) for m in (1, 2, 3)]
+        self.forcing = md.absV @ np.column_stack([fm * abs_s for fm in factors])
         self.lam12 = np.column_stack((self.abs_lam, self.abs_lam ** 2))
+        self.absV_T = np.ascontiguousarray(self.absV.T)
+        self.forcing_T = np.ascontiguousarray(self.forcing[:, :2].T)
         self.L_FF = _Band(md.L_FF)
         self.L_SF = _Band(md.L_SF)
 
 
 class _Segment:
-    r"""Closed-form flight (55)-(56) of one free set from ``t_c``, O(n) per evaluation.
+    r"""Closed-form flight (55)-(56) of one free set from ``t_c``, O(n) per evaluated node.
 
-    With :math:`R = e^{it_c}/(i - \lambda) = R_r + iR_i` per mode, the forced response of
-    :func:`~.exact.forced_response` is
-    :math:`\mathcal W = R_r\sin\tau - R_i(2\sin^2(\tau/2) + e^{\lambda\tau} - 1) - \tau\varphi_1/\Gamma` and
-    :math:`\mathcal Z = 2R_r\sin^2(\tau/2) + R_i(\sin\tau - \tau\varphi_1) - \tau^2\varphi_2/\Gamma`,
-    so the per-segment constants are computed once and an evaluation is a few vector operations;
-    written this way every term is accurate relative to its own size at small :math:`\tau` (no
-    :math:`1 - \cos\tau` cancellation), which keeps the root polish convergent.
+    With :math:`r = 1/(i - \lambda)` and :math:`e^{it_c}r\,s = u + iv` per mode, the forced
+    response of :func:`~.exact.forced_response` is
+
+    .. math::
+        s\mathcal W &= u\sin\tau - v\,\mathrm{vers}\,\tau - v(e^{\lambda\tau} - 1)
+                      - \frac{s}{\Gamma}\tau\varphi_1(\lambda\tau),\\
+        s\mathcal Z &= u\,\mathrm{vers}\,\tau + v\sin\tau - v\,\tau\varphi_1
+                      - \frac{s}{\Gamma}\tau^2\varphi_2(\lambda\tau),
+
+    :math:`\mathrm{vers}\,\tau = 1 - \cos\tau = 2\sin^2(\tau/2)` (no cancellation at
+    small :math:`\tau`, which keeps the root polish convergent).  The terms with scalar
+    coefficients go through the per-free-set columns :math:`V(s\,\mathrm{Re}\,r)`,
+    :math:`V(s\,\mathrm{Im}\,r)`, :math:`Vs/\Gamma`, rotated by :math:`t_c`, so one
+    evaluation is one product with ``[V | P]``; when gravity forces zero modes only
+    (no stuck node) all forcing terms are of that kind.
     """
 
     def __init__(self, fs, a, zeta0, t_c, Gamma):
         self.fs, self.a, self.zeta0, self.t_c = fs, a, zeta0, t_c
-        R = complex(math.cos(t_c), math.sin(t_c)) * fs.resolvent
-        s = fs.s_masked
-        self.u = s * R.real
-        self.v = s * R.imag
-        self.q = s / Gamma
-        self.forced = fs.forced.size > 0
-        self._memo = (None, None, None, None)
+        c, sn = math.cos(t_c), math.sin(t_c)
+        # (u, v) = rotation of (s Re r, s Im r) by t_c
+        self.rot = np.array([[c, sn, 0.0], [-sn, c, 0.0], [0.0, 0.0, 1.0]])
+        self.u = c * fs.s_re - sn * fs.s_im
+        self.v = sn * fs.s_re + c * fs.s_im
+        self.q = fs.s / Gamma
+        self.a_v = a - self.v
+        self.zero_only = fs.zero_only
+        self._memo = (None, None, None)
 
     def coefficients(self, tau):
-        """Modal coefficients ``(c_w, c_zeta)`` and ``e^{lam tau}`` at local time ``tau``."""
+        """``(M, e^{lam tau})``: ``[V | P] @ M`` is ``(w_F, zeta_F - zeta_F(t_c))`` at ``tau``."""
         if self._memo[0] == tau:
             return self._memo[1:]
         fs = self.fs
+        nf = fs.nf
         z = fs.lam * tau
         em1 = np.expm1(z)
         expo = em1 + 1.0
-        p1 = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0)
-        if self.forced:
-            st = math.sin(tau)
-            vers = 2.0 * math.sin(0.5 * tau) ** 2         # 1 - cos(tau) without cancellation
-            cw = expo * self.a + self.u * st - self.v * (vers + em1) - self.q * p1
-            cz = p1 * self.a + self.u * vers + self.v * (st - p1) - self.q * (tau * tau * _phi2(z))
+        p1 = em1 / fs.lam_safe + fs.zero * tau              # tau phi_1(lam tau)
+        st = math.sin(tau)
+        vers = 2.0 * math.sin(0.5 * tau) ** 2
+        M = np.empty((nf + 3, 2))
+        if self.zero_only:
+            M[:nf, 0] = expo * self.a
+            M[:nf, 1] = p1 * self.a
+            M[nf:] = self.rot @ np.array([[st, vers], [-vers, st - tau], [-tau, -0.5 * tau * tau]])
         else:
-            cw = expo * self.a
-            cz = p1 * self.a
-        self._memo = (tau, cw, cz, expo)
-        return cw, cz, expo
+            M[:nf, 0] = expo * self.a - self.v * em1 - self.q * p1
+            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * _phi2(z))
+            M[nf:] = self.rot @ np.array([[st, vers], [-vers, st], [0.0, 0.0]])
+        self._memo = (tau, M, expo)
+        return M, expo
+
+    def velocity_amplitudes(self, tau):
+        """Modal amplitudes of ``w_F`` at ``tau`` (the state carried to the next segment)."""
+        M, _ = self.coefficients(tau)
+        st = math.sin(tau)
+        vers = 2.0 * math.sin(0.5 * tau) ** 2
+        cw = M[:self.fs.nf, 0] + self.u * st - self.v * vers
+        if self.zero_only:
+            cw = cw - self.q * tau - self.v * (np.expm1(self.fs.lam * tau))
+        return cw
 
     def state(self, tau):
-        """``(w_F, zeta_F, c_w, e^{lam tau})`` at local time ``tau``."""
-        cw, cz, expo = self.coefficients(tau)
-        WZ = self.fs.V @ np.column_stack((cw, cz))
-        return WZ[:, 0], self.zeta0 + WZ[:, 1], cw, expo
+        """``(w_F, zeta_F, e^{lam tau})`` at local time ``tau``."""
+        M, expo = self.coefficients(tau)
+        WZ = self.fs.VP @ M
+        return WZ[:, 0], self.zeta0 + WZ[:, 1], expo
 
 
 class PointIntegrator(Integrator):
@@ -277,23 +318,21 @@ class PointIntegrator(Integrator):
 
     # ------------------------------------------------------- modal evaluation
     def _row_value(self, seg, j, tau):
-        """Candidate ``j``, its slope and its round-off at ``tau`` (height of free row j, or minus a
-        stuck acceleration): one row of ``V`` against the modal coefficients, O(n)."""
+        """Candidate ``j`` and its slope at ``tau`` (height of free row j, or minus a stuck
+        acceleration): one row of ``V`` against the modal coefficients, O(n)."""
         fs = seg.fs
-        cw, cz, _ = seg.coefficients(tau)
+        M, _ = seg.coefficients(tau)
         if j < fs.nf:
-            row = fs.V[j]
-            noise = 8 * _EPS * (abs(seg.zeta0[j]) + fs.absV[j] @ np.abs(cz))
-            return seg.zeta0[j] + row @ cz, row @ cw, noise
+            wz = fs.VP[j] @ M
+            return seg.zeta0[j] + wz[1], wz[0]
         k = j - fs.nf
         t = seg.t_c + tau
         g = math.sin(t) - 1.0 / self.Gamma
         cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
-        Vn = fs.V[cols]
-        acc = g + vals @ (Vn @ cw)
-        dacc = math.cos(t) + vals @ (Vn @ (fs.lam * cw + g * fs.s_masked))
-        noise = 8 * _EPS * (abs(g) + fs.L_SF.abs_vals[k] @ (fs.absV[cols] @ np.abs(cw)))
-        return -acc, -dacc, noise
+        acc = g + vals @ (fs.VP[cols] @ M[:, 0])
+        # w' = V (lam c_w + g s)
+        dacc = math.cos(t) + vals @ (fs.V[cols] @ (fs.lam * seg.velocity_amplitudes(tau) + g * fs.s))
+        return -acc, -dacc
 
     # ------------------------------------------------------------------ step
     def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
@@ -352,9 +391,10 @@ class PointIntegrator(Integrator):
             self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
                                                           np.cbrt(6.0 * eps_z / jerk[rel]))
         release = self._guard[F] - t0
+        guarded = bool(np.any(release > 0.0))
+        fv, dv = np.empty((2, nf)), np.empty((2, nf))
         seg = _Segment(fs, a, zeta0, t0, Gamma)
         steps = 0
-        cw = a
         while True:
             steps += 1
             if steps > self.max_steps:
@@ -363,18 +403,22 @@ class PointIntegrator(Integrator):
                                    f"near t = {t0 + tau:.15g} (grazing contact?)")
             t_now = t0 + tau
             if tau > 0.0:
-                wF, zF, cw, expo = seg.state(tau)
+                wF, zF, expo = seg.state(tau)
                 decay = expo * abs_a
             else:
                 decay = abs_a
             g = math.sin(t_now) - 1.0 / Gamma
             accF = fs.L_FF.dot(wF) + g
-            AB = fs.absV @ (fs.lam12 * decay[:, None]) + fs.forcing[:, :2]
-            A, B = AB[:, 0], AB[:, 1]
-            h_contact = _safe_step(zF, wF, A)
-            # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
-            h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
-            h_contact = np.maximum(np.maximum(h_contact, h_rise), release - tau)
+            AB = (fs.lam12 * decay[:, None]).T @ fs.absV_T + fs.forcing_T
+            A, B = AB[0], AB[1]
+            # safe steps of the heights (row 0) and, for rising nodes (w >= 0 to round-off), of
+            # the velocities' lower bound (row 1): one pass over both
+            fv[0], fv[1] = zF, wF
+            dv[0], dv[1] = wF, accF
+            h2 = _safe_step(fv, dv, AB)
+            h_contact = np.maximum(h2[0], np.where(wF >= -eps_w, h2[1], 0.0))
+            if guarded:
+                h_contact = np.maximum(h_contact, release - tau)
             if has_stuck:
                 # lift-off candidates: f = -a for stuck nodes
                 accS = g + fs.L_SF.dot(wF)
@@ -395,8 +439,8 @@ class PointIntegrator(Integrator):
                 self._sample(seg, tau, tau_stop, t_eval, samples, n)
                 self.n_steps += steps
                 if tau_stop > 0.0:
-                    wF, zF, cw, _ = seg.state(tau_stop)
-                self._carry = (t_stop, key, wF, cw)
+                    wF, zF, _ = seg.state(tau_stop)
+                self._carry = (t_stop, key, wF, seg.velocity_amplitudes(max(tau_stop, 0.0)))
                 wo, zo = _full(F, n, wF, zF)
                 return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
             event = None
@@ -424,21 +468,21 @@ class PointIntegrator(Integrator):
         t0 = seg.t_c
         sel = (t_eval > t0 + tau_a) & (t_eval <= t0 + tau_b)
         for te in t_eval[sel]:
-            wF, zF, _, _ = seg.state(te - t0)
+            wF, zF, _ = seg.state(te - t0)
             samples.append((float(te),) + _full(seg.fs.F, n, wF, zF))
 
     def _values(self, seg, tau, group):
         """Candidates ``group`` (free rows, then stuck rows) at local time ``tau``."""
         fs, zeta0, t0 = seg.fs, seg.zeta0, seg.t_c
-        cw, cz, _ = seg.coefficients(tau)
+        M, _ = seg.coefficients(tau)
         out = np.empty(group.size)
         isf = group < fs.nf
         rows = group[isf]
-        out[isf] = zeta0[rows] + fs.V[rows] @ cz
+        out[isf] = zeta0[rows] + fs.VP[rows] @ M[:, 1]
         if not np.all(isf):
             k = group[~isf] - fs.nf
             cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
-            wn = (fs.V[cols.ravel()] @ cw).reshape(cols.shape)
+            wn = (fs.VP[cols.ravel()] @ M[:, 0]).reshape(cols.shape)
             g = math.sin(t0 + tau) - 1.0 / self.Gamma
             out[~isf] = -(g + (vals * wn).sum(axis=1))
         return out
@@ -477,23 +521,32 @@ class PointIntegrator(Integrator):
     def _root(self, seg, j, lo, hi, flo, dlo):
         """Root of candidate ``j``, strictly decreasing on [lo, hi] (``flo``, ``dlo``: value, slope at lo).
 
-        Safeguarded Newton (bisection whenever an iterate leaves the bracket), O(n) per iteration.
+        Safeguarded Newton (bisection whenever an iterate leaves the bracket), O(n) per iteration;
+        stops when the Newton correction is below ``1e-15 + 4 eps |tau|`` (brentq's tolerance in
+        ``method="exact"``) or the bracket is that narrow.
         """
         if flo <= 0.0:
             return lo
         x, fx, dx = lo, flo, dlo
         for _ in range(200):
-            xn = x - fx / dx if dx < 0.0 else math.inf
-            if not lo < xn < hi:
+            tol = 1e-15 + 4 * _EPS * abs(x)
+            if dx < 0.0:
+                step = -fx / dx
+                if abs(step) <= tol:
+                    return min(max(x + step, lo), hi)
+                xn = x + step
+                if not lo < xn < hi:
+                    xn = 0.5 * (lo + hi)
+            else:
                 xn = 0.5 * (lo + hi)
-            fx, dx, noise = self._row_value(seg, j, xn)
-            if abs(fx) <= noise:            # at the root to the round-off of the evaluation
+            fx, dx = self._row_value(seg, j, xn)
+            if fx == 0.0:
                 return xn
             if fx > 0.0:
                 lo = xn
             else:
                 hi = xn
-            if abs(xn - x) <= 1e-15 + 4 * _EPS * abs(xn) or hi - lo <= 1e-15 + 4 * _EPS * abs(hi):
+            if hi - lo <= tol:
                 return xn
             x = xn
         return x
@@ -502,7 +555,7 @@ class PointIntegrator(Integrator):
         """State at the event and the simultaneous sets (54)."""
         fs, a, zeta0, t0 = seg.fs, seg.a, seg.zeta0, seg.t_c
         F, S = fs.F, fs.S
-        wF, zF, cw, _ = seg.state(tau_c)
+        wF, zF, _ = seg.state(tau_c)
         t_c = t0 + tau_c
         g = math.sin(t_c) - 1.0 / self.Gamma
         eps_z = 64 * _EPS * (1.0 + np.abs(zeta0) + fs.absV @ np.abs(a) * max(1.0, tau_c))
@@ -510,7 +563,7 @@ class PointIntegrator(Integrator):
         contact, liftoff = event_sets(t_c, wF, zF, F, S, fs.modes.L_FF, fs.modes.L_SF, self.Gamma,
                                       self.time_tol, eps_z, eps_a)
         contact = contact[self._guard[contact] <= t_c]
-        self._carry = (t_c, key, wF, cw)
+        self._carry = (t_c, key, wF, seg.velocity_amplitudes(tau_c))
         wo, zo = _full(F, n, wF, zF)
         return Step(t_c, wo, zo, contact, liftoff, samples)
 
@@ -526,15 +579,12 @@ def _full(F, n, wF, zF):
 def _safe_step(f, fp, A):
     r"""Largest h with :math:`f + f'h - Ah^2/2 > 0` on (0, h) (0 where f <= 0 and f' <= 0).
 
-    Uses :math:`h = 2f/(\sqrt{f'^2 + 2Af} - f')` for :math:`f' < 0` (no cancellation)
-    and :math:`(f' + \sqrt{f'^2 + 2Af})/A` otherwise.
+    ``A > 0``.  Uses :math:`h = 2f/(\sqrt{f'^2 + 2Af} + |f'|)` for :math:`f' < 0` (no
+    cancellation) and :math:`(f' + \sqrt{f'^2 + 2Af})/A` otherwise.
     """
-    f = np.maximum(f, 0.0)
-    root = np.sqrt(fp * fp + 2.0 * A * f)
-    den = root - fp
-    neg = np.divide(2.0 * f, den, out=np.zeros_like(f), where=den > 0.0)
-    pos = np.divide(fp + root, A, out=np.full_like(f, np.inf), where=A > 0.0)
-    return np.where(fp >= 0.0, pos, neg)
+    f2 = 2.0 * np.maximum(f, 0.0)
+    root = np.sqrt(fp * fp + A * f2)
+    return np.where(fp >= 0.0, (fp + root) / A, f2 / (root + np.abs(fp) + 1e-300))
 
 
 _PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
