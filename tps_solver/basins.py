@@ -67,7 +67,7 @@ import math
 import numpy as np
 
 from ._result import Bunch
-from ._validation import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from ._checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 
 __all__ = ["flat_basins", "BasinResult", "ball_cycle"]
 

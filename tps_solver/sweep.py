@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validation import check_int, check_real
+from ._checks import check_int, check_real
 
 __all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted"]
 
