@@ -18,7 +18,9 @@ Public API (see ``README.md`` for a tour):
 * :class:`PeriodicOrbit`, :data:`STATUS` -- the vocabulary of every periodic result;
 * :func:`check_stability` -- hands a limit cycle to the FDA;
 * :func:`find_periodic_orbit` -- periodic orbits of any contact pattern by shooting;
-* :func:`continue_branch`, :class:`Branch` -- continuation with folds and period doublings.
+* :func:`continue_branch`, :class:`Branch` -- continuation with folds and period doublings;
+* :func:`flat_basins` -- basins of attraction of the bouncing ball (one node);
+* :func:`sweep` -- parameter sweeps on any ``concurrent.futures.Executor`` (Dask too), resumable.
 
 See ``ARCHITECTURE.md`` for the layers and what each module owns.
 
@@ -53,6 +55,8 @@ _LAZY = {
     "continue_branch": "continuation",
     "Branch": "continuation",
     "load_branch": "continuation",
+    "sweep": "sweep",
+    "flat_basins": "basins",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]
