@@ -1,12 +1,21 @@
-"""Shared fixtures. The repository root is put on ``sys.path`` so tests can import ``validation.*``."""
+"""Shared fixtures. The repository root is put on ``sys.path`` so tests can import ``validation.*``.
+
+Property-based tests are reproducible: the hypothesis profile ``"ci"`` (loaded here) is
+derandomized (examples come from a fixed seed derived from the test), keeps no example
+database, and prints the reproducing blob of any failure, so a run can never fail by chance.
+"""
 import os
 import sys
 
 import pytest
+from hypothesis import settings
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if _ROOT not in sys.path:
     sys.path.insert(0, _ROOT)
+
+settings.register_profile("ci", derandomize=True, database=None, print_blob=True, deadline=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 @pytest.fixture

@@ -11,13 +11,13 @@ import math
 import mpmath
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from tps_solver import growth_rates, secular_roots
 from tps_solver.cli import main as cli_main
 from tps_solver.linear_stability import (
-    KAPPA_C, MODES, _phi_complex, _winding_number, chebyshev_eigenvalues, reduced_secular_function,
+    KAPPA_C, MODES, POLISH_REL, _phi_complex, _winding_number, chebyshev_eigenvalues, reduced_secular_function,
 )
 from validation.linear_stability import (
     agreement_table, convergence_study, free_surface_limit, shooting_determinant, shooting_root,
@@ -263,14 +263,48 @@ def test_reduced_function_is_continuous_across_branches():
             assert np.all(np.abs(cplx.imag) <= 1e-12 * np.abs(cplx.real))
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=25, deadline=None, derandomize=True)
 @given(log_kappa=st.floats(-3.0, math.log10(50.0)), mode=st.sampled_from(MODES))
+@example(log_kappa=0.6015625, mode="varicose")   # gamma = 0.01187i, ill-conditioned near KAPPA_C
 def test_property_roots_solve_35_and_are_damped(log_kappa, mode):
     kappa = 10.0 ** log_kappa
     res = secular_roots(kappa, mode, 4)
     assert res.complete and np.all(res.lam < 0) and np.all(np.diff(res.lam) < 0)
     for g in res.gamma:
         assert _brackets_root_of_35(complex(g), kappa, mode)
+
+
+@pytest.mark.parametrize("kappa", [10.0 ** 0.6015625, KAPPA_C * (1 - 1e-3), KAPPA_C * (1 + 1e-3),
+                                   KAPPA_C * (1 + 3e-3), 4.0087967473613520])
+def test_roots_near_kappa_c_are_polished_to_16_ulps(kappa):
+    # the least-damped varicose root gamma -> 0 near kappa = 4 tanh kappa: kappa^4 - 4 kappa^3 tanh kappa
+    # cancels, so the double-precision root is off by ~1e3 ulps (regression: 0.01187i at log kappa = 0.6015625)
+    res = secular_roots(kappa, "varicose", 4)
+    assert res.polished[0] and res.error_bound[0] <= POLISH_REL
+    for g in res.gamma:
+        assert _brackets_root_of_35(complex(g), kappa, "varicose")
+    # independent: the mpmath root of (35) as printed, started from the returned value
+    g0 = complex(res.gamma[0])
+    with mpmath.workdps(40):
+        k = mpmath.mpf(kappa)
+        if g0.imag == 0:
+            f = lambda x: mpmath.sinh(x * k) * (x * x + 1) ** 2 - 4 * x * mpmath.tanh(k) * mpmath.cosh(x * k)
+            ref = mpmath.findroot(f, mpmath.mpf(g0.real))
+            assert abs(g0.real - float(ref)) <= 2 * EPS * float(ref)
+        else:
+            f = lambda b: mpmath.sin(b * k) * (1 - b * b) ** 2 - 4 * b * mpmath.tanh(k) * mpmath.cos(b * k)
+            ref = mpmath.findroot(f, mpmath.mpf(g0.imag))
+            assert abs(g0.imag - float(ref)) <= 2 * EPS * float(ref)
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("kappa", [1e-3, 0.3, 1.0, 5.0, 50.0])
+def test_error_bound_is_reported_and_honest(kappa, mode):
+    res = secular_roots(kappa, mode, 6)
+    assert res.error_bound.shape == (6,) and res.polished.shape == (6,)
+    assert np.all(res.error_bound >= EPS) and np.all(res.error_bound <= POLISH_REL)
+    for g, bound in zip(res.gamma, res.error_bound):
+        assert _brackets_root_of_35(complex(g), kappa, mode, rel=max(4 * bound, 4 * EPS))
 
 
 # ----------------------------------------------------------------------------- growth rates

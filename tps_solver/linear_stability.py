@@ -83,12 +83,19 @@ determinants, divided by their trivial factors, are entire real functions of
 analytically (a divided difference of :math:`\tanh`) so that roots near
 :math:`\gamma = 1` keep full relative accuracy.  Real roots are bracketed on a
 grid and polished with Brent's method; a winding-number count of the zeros inside
-a disc in the :math:`s` plane certifies that no complex root was missed.
+a disc in the :math:`s` plane certifies that no complex root was missed.  Each root
+carries a first-order error bound (rounding error of the secular function over
+its slope, times the amplification from the root variable to :math:`\gamma`); where
+it exceeds :data:`POLISH_REL` the root is re-solved by bisection of the plain
+determinant in mpmath.  That is needed near :math:`\kappa_c = 4\tanh\kappa_c`, where
+the least-damped varicose root :math:`\gamma \to 0` is ill-conditioned in double
+precision (:math:`\kappa^4 - 4\kappa^3\tanh\kappa` cancels).
 Hyperbolic functions are evaluated in scaled form, so :math:`\kappa` up to 1e3
 gives no overflow.
 """
 import math
 
+import mpmath
 import numpy as np
 from scipy import linalg, optimize
 
@@ -97,13 +104,17 @@ from ._checks import check_choice, check_int, check_positive
 
 __all__ = [
     "secular_roots", "growth_rates", "reduced_secular_function",
-    "chebyshev_eigenvalues", "SecularRoots", "KAPPA_C", "MODES",
+    "chebyshev_eigenvalues", "SecularRoots", "KAPPA_C", "MODES", "POLISH_REL",
 ]
 
 MODES = ("sinuous", "varicose")
 _KAPPA_MAX = 1.0e3
 _KAPPA_MIN = 1.0e-6
 _N_MAX = 1000
+_EPS = np.finfo(float).eps
+
+#: Relative error bound on gamma above which a root is re-solved in extended precision.
+POLISH_REL = 4.0 * _EPS
 
 
 def _kappa_c():
@@ -345,6 +356,125 @@ def _lower_roots(kappa, mode, n_wanted):
     return roots[:n_wanted]
 
 
+def _magnitude_upper(d, kappa, mode):
+    """Sum of the absolute values of the terms that :func:`_phi_upper` adds (its rounding scale)."""
+    d = np.asarray(d, dtype=float)
+    p = kappa - d
+    k2 = kappa * kappa
+    Tk = abs(float(_tanh_minus_x(np.array(kappa))))
+    tk = math.tanh(kappa)
+    dT = np.abs(_dT(p, d, kappa))
+    direct = (kappa > 1.0) & (d > 0.25 * kappa)
+    den = np.abs(np.where(direct, (p - kappa) * (p + kappa), 1.0))
+    if mode == "sinuous":
+        t_form = (kappa * d * (2.0 * kappa - d) + 4.0 * kappa ** 3 * (np.abs(_tanh_minus_x(p)) + kappa * dT)
+                  / (p + kappa) + (p * p + 3.0 * k2) * Tk)
+        plain = (4.0 * kappa ** 3 * p * np.tanh(p) + (p * p + k2) ** 2 * tk) / den
+        return np.where(direct, plain, t_form)
+    gk = tk / kappa
+    g_p = np.where(p < 1e-4, 1.0, np.tanh(p) / np.where(p < 1e-4, 1.0, p))
+    low = p < 0.5 * kappa
+    p_safe = np.where(p > 0, p, 1.0)
+    q_mag = np.where(low, (g_p + gk) / np.abs(p * p - k2 + (p * p == k2)),
+                     (kappa * dT + Tk) / (p_safe * kappa * (p_safe + kappa)))
+    t_form = (p * p + k2) ** 2 * q_mag + gk * (p * p + 3.0 * k2)
+    plain = ((p * p + k2) ** 2 * g_p + 4.0 * kappa ** 3 * tk) / den
+    return np.where(direct, plain, t_form)
+
+
+def _magnitude_lower(m, kappa, mode):
+    """Sum of the absolute values of the terms that :func:`_phi_lower` adds (its rounding scale)."""
+    m = np.asarray(m, dtype=float)
+    k2 = kappa * kappa
+    tk = math.tanh(kappa)
+    if mode == "sinuous":
+        mag = 4.0 * kappa ** 3 * np.abs(m * np.sin(m)) + (k2 - m * m) ** 2 * tk * np.abs(np.cos(m))
+    else:
+        mag = (k2 - m * m) ** 2 * np.abs(np.sinc(m / np.pi)) + 4.0 * kappa ** 3 * tk * np.abs(np.cos(m))
+    return mag / (m * m + k2)
+
+
+def _error_bound(f, magnitude, x, amplification, c=4.0):
+    r"""First-order relative error bound of the root ``x`` of ``f`` carried over to gamma.
+
+    :math:`c\,\epsilon\,|f|_{
+m terms}/(|f'(x)|\,|x|)` (rounding error of ``f`` over its
+    slope) times ``amplification`` = :math:`|x\,d\gamma/dx|/|\gamma|`, plus the
+    rounding of gamma itself.  The slope is a central difference with step 1e-5 x.
+    """
+    h = 1e-5 * abs(x)
+    if h == 0.0:
+        return math.inf
+    slope = abs(float(f(np.array([x + h]))[0] - f(np.array([x - h]))[0])) / (2.0 * h)
+    scale = float(magnitude(np.array([x]))[0])
+    if not (slope > 0.0 and math.isfinite(slope) and math.isfinite(scale)):
+        return math.inf
+    return c * _EPS * scale / (slope * abs(x)) * amplification + _EPS
+
+
+def _mp_determinant(x, k, tk, mode, branch):
+    """The secular determinant (trivial factors kept) at the root variable x, in mpmath.
+
+    ``k`` is kappa and ``tk`` its tanh, both mpf at the working precision.
+    """
+    if branch == "upper":                      # p = kappa - x real
+        p = k - x
+        sh_p = mpmath.sinh(p) / p if p != 0 else mpmath.mpf(1)
+        if mode == "sinuous":
+            return 4 * k ** 3 * p * mpmath.sinh(p) - (p * p + k * k) ** 2 * tk * mpmath.cosh(p)
+        return (p * p + k * k) ** 2 * sh_p - 4 * k ** 3 * tk * mpmath.cosh(p)
+    m = x                                      # p = i m
+    if mode == "sinuous":
+        return -4 * k ** 3 * m * mpmath.sin(m) - (k * k - m * m) ** 2 * tk * mpmath.cos(m)
+    sn_m = mpmath.sin(m) / m if m != 0 else mpmath.mpf(1)
+    return (k * k - m * m) ** 2 * sn_m - 4 * k ** 3 * tk * mpmath.cos(m)
+
+
+def _polish_mp(x, rel, kappa, mode, branch):
+    """Re-solve the root near ``x`` (relative error about ``rel``) by mpmath bisection.
+
+    Returns ``(gamma, lam, s)`` rounded from the extended-precision root, or None
+    if no sign change is found within a few widenings of the bracket.
+    """
+    lost = math.log10(max(1.0, kappa / x)) if branch == "upper" else 0.0
+    dps = 30 + int(2 * math.ceil(lost)) + 4 * int(math.ceil(max(0.0, -math.log10(kappa))))
+    with mpmath.workdps(dps):
+        xm = mpmath.mpf(x)
+        k = mpmath.mpf(kappa)
+        tk = mpmath.tanh(k)
+        f = lambda y: _mp_determinant(y, k, tk, mode, branch)  # noqa: E731
+        width = max(64.0 * _EPS, 8.0 * rel)
+        for _ in range(8):
+            a, b = xm * (1 - width), xm * (1 + width)
+            if branch == "upper" and b > k:
+                b = k
+            fa, fb = f(a), f(b)
+            if fa * fb < 0:
+                break
+            width *= 8.0
+            if width >= 0.5:
+                return None
+        else:
+            return None
+        tol = xm * mpmath.mpf(10) ** -22
+        while b - a > tol:
+            c = (a + b) / 2
+            fc = f(c)
+            if fc == 0:
+                a = b = c
+                break
+            if fa * fc < 0:
+                b = c
+            else:
+                a, fa = c, fc
+        root = (a + b) / 2
+        if branch == "upper":
+            g = 1 - root / k
+            return complex(float(g)), float(g * g - 1), float((k - root) ** 2)
+        g = root / k
+        return complex(0.0, float(g)), float(-g * g - 1), float(-root * root)
+
+
 def _winding_number(f, center, radius, n0=4096, max_points=2 ** 23, sqrt_scale=False):
     """Zeros of analytic ``f`` inside the circle |s - center| = radius (argument principle).
 
@@ -406,6 +536,12 @@ class SecularRoots(Bunch):
         ``(center, radius)`` of the checked circle in the ``s = (gamma kappa)**2`` plane;
         it contains every returned root and crosses the real axis between the
         ``n_roots``-th and the next root.
+    error_bound : ndarray of float, shape (n_roots,)
+        Estimated bound on ``|delta gamma| / |gamma|`` of each root (first order in
+        the rounding error of the secular function); ``eps`` for a polished root.
+    polished : ndarray of bool, shape (n_roots,)
+        Roots whose double-precision bound exceeded :data:`POLISH_REL` and that were
+        re-solved in mpmath (near ``KAPPA_C``, the varicose root ``gamma -> 0``).
     """
 
 
@@ -435,7 +571,7 @@ def secular_roots(kappa, mode, n_roots=10):
     res : SecularRoots
         Always the same type; fields ``gamma`` (complex, shape ``(n_roots,)``),
         ``lam``, ``trivial``, ``trivial_is_eigenvalue``, ``n_enclosed``,
-        ``complete``, ``contour``, ``kappa``, ``mode``.
+        ``complete``, ``contour``, ``kappa``, ``mode``, ``error_bound``, ``polished``.
 
     Raises
     ------
@@ -464,6 +600,27 @@ def secular_roots(kappa, mode, n_roots=10):
     lam = [-d * (2.0 * kappa - d) / k2 for d in upper] + [-(m * m + k2) / k2 for m in lower]
     gamma = [complex(1.0 - d / kappa) for d in upper] + [complex(0.0, m / kappa) for m in lower]
     s_all = [(kappa - d) ** 2 for d in upper] + [-m * m for m in lower]
+    # per-root error bounds; ill-conditioned roots are re-solved in extended precision
+    f_up = lambda d: _phi_upper(d, kappa, mode)  # noqa: E731
+    f_lo = lambda m: _phi_lower(m, kappa, mode)  # noqa: E731
+    bound, polished = [], []
+    for i, (branch, x) in enumerate([("upper", d) for d in upper] + [("lower", m) for m in lower]):
+        if i >= n_roots:
+            break
+        if branch == "upper":
+            g = 1.0 - x / kappa
+            amp = (x / kappa) / g if g > 0 else math.inf
+            rel = _error_bound(f_up, lambda d: _magnitude_upper(d, kappa, mode), x, amp)
+        else:
+            rel = _error_bound(f_lo, lambda m: _magnitude_lower(m, kappa, mode), x, 1.0)
+        done = False
+        if rel > POLISH_REL and x > 0.0:
+            better = _polish_mp(x, rel, kappa, mode, branch)
+            if better is not None:
+                gamma[i], lam[i], s_all[i] = better
+                rel, done = _EPS, True
+        bound.append(rel)
+        polished.append(done)
 
     s_low = 0.5 * (s_all[n_roots - 1] + s_all[n_roots])
     s_high = k2 + max(k2, 1.0)
@@ -487,6 +644,7 @@ def secular_roots(kappa, mode, n_roots=10):
         trivial=trivial, trivial_is_eigenvalue=is_eig,
         n_enclosed=n_enclosed, complete=bool(resolved and n_enclosed == n_roots),
         contour=(center, radius),
+        error_bound=np.array(bound, dtype=float), polished=np.array(polished, dtype=bool),
     )
 
 
