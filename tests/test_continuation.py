@@ -121,3 +121,40 @@ def test_bad_input(kw, name):
 def test_bad_start():
     with pytest.raises(ValueError, match="start"):
         continue_branch("a flat layer", "Gamma", (2.0, 3.0))
+
+
+def test_cli_branch_flat_reports_both_special_points(tmp_path, capsys):
+    from tps_solver.cli import main
+
+    code = main(["branch", "flat", "--e", "0.45", "--bounds", "2.3", "3.2", "--plot", str(tmp_path / "b.png"),
+                 "--save", str(tmp_path / "b.npz")])
+    out = capsys.readouterr().out
+    assert code == 0
+    lo, hi = tps.FlatLayer.stability_window(0.45, 2)
+    assert f"fold             at Gamma = {lo:.12g}"[:38] in out
+    assert "period_doubling" in out and (tmp_path / "b.png").exists() and (tmp_path / "b.npz").exists()
+
+
+def test_cli_sweep_basins_serial(tmp_path, capsys):
+    from tps_solver.cli import main
+
+    code = main(["sweep", "basins", "--gamma", "4.1", "4.1", "1", "--e", "0", "0", "1", "--samples", "4",
+                 "--serial", "--store", str(tmp_path / "store")])
+    out = capsys.readouterr().out
+    assert code == 0
+    # e = 0, Gamma = 4.1: every start reaches the sticking f/2 orbit
+    assert out.strip().splitlines()[-1].split()[-1] == "1.000"
+
+
+@pytest.mark.parametrize("argv, flag", [
+    (["sweep", "basins", "--gamma", "4.1", "4.0", "1", "--e", "0", "0", "1"], "--gamma"),
+    (["sweep", "basins", "--gamma", "4.1", "4.1", "0", "--e", "0", "0", "1"], "--gamma"),
+    (["sweep", "basins", "--gamma", "4.1", "4.1", "1", "--e", "0", "0", "1", "--samples", "0"], "--samples"),
+    (["sweep", "basins", "--gamma", "4.1", "4.1", "1", "--e", "0", "0", "1", "--model", "soft"], "--cutoff"),
+    (["branch", "cycle", "--bounds", "8", "30", "--nodes", "1"], "--nodes"),
+])
+def test_cli_bad_flags_name_the_flag(argv, flag, capsys):
+    from tps_solver.cli import main
+
+    assert main(argv) == 2
+    assert flag in capsys.readouterr().err

@@ -55,7 +55,7 @@ _LAZY = {
     "continue_branch": "continuation",
     "Branch": "continuation",
     "load_branch": "continuation",
-    "sweep": "sweep",
+    "sweep": "parallel",
     "flat_basins": "basins",
 }
 

@@ -644,7 +644,7 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     max_events_per_cycle : int
         A sample with more events in a forcing cycle fails (``labels == -2``).
     executor, store, progress
-        Passed to :func:`~tps_solver.sweep.sweep` (one point per sample);
+        Passed to :func:`~tps_solver.parallel.sweep` (one point per sample);
         default in this process.
 
     Returns
@@ -659,7 +659,7 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     >>> round(res.flat_fraction, 3), res.converged
     (1.0, True)
     """
-    from .sweep import sweep
+    from .parallel import sweep
 
     Gamma, e, model, cutoff = _check_model(Gamma, e, model, cutoff)
     M = check_int(M, "M", minimum=1)

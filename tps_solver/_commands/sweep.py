@@ -42,7 +42,7 @@ def run(args):
     import tps_solver as tps
 
     from .._checks import check_int
-    from ..sweep import param_range
+    from ..parallel import param_range
 
     gammas = param_range(*args.gamma, name="--gamma")
     es = param_range(*args.e, name="--e")
