@@ -239,3 +239,18 @@ def test_impact_map_jacobian_needs_a_point_for_contact_patterns():
     fl = tps.FlatLayer(4.1, 2, e=0.0)
     with pytest.raises(ValueError, match="^t and v must be given"):
         fl.impact_map_jacobian()
+
+
+def test_patterns_table():
+    t = tps.FlatLayer.patterns(4.1, 2, e=0.0)
+    assert t["stick"] == (True, ["stable"]) and not t["bounce"][0] and not t["touch"][0]
+    t = tps.FlatLayer.patterns(2.5, 2, e=0.45)
+    assert t["bounce"] == (True, ["stable", "unstable"])
+    assert t["stick"] == (False, "the sticking orbit has period 2*pi*5 (M = 5)")
+    assert tps.FlatLayer.patterns(3.8, 2, e=0.0)["touch"] == (True, ["stable"])
+    # every pattern the table reports can be constructed, with the stated branch
+    for pat, (ok, info) in tps.FlatLayer.patterns(20.0, 2, e=0.0).items():
+        if ok:
+            assert tps.FlatLayer(20.0, 2, e=0.0, pattern=pat, branch=info[0]).pattern == pat
+    with pytest.raises(ValueError, match="^e "):
+        tps.FlatLayer.patterns(4.1, 2, e=-0.5)

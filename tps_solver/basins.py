@@ -655,7 +655,7 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     --------
     >>> res = flat_basins(4.1, 0.0, M=2, n_samples=4, seed=1, periods=40)
     >>> [(a.label, a.count, a.multipliers.tolist()) for a in res.attractors]
-    [('f/2 (1 stick)', 4, [0j, 0j])]
+    [('f/2 (1 impact, 1 stick)', 4, [0j, 0j])]
     >>> round(res.flat_fraction, 3), res.converged
     (1.0, True)
     """

@@ -66,39 +66,47 @@ def _contact_orbit(Gamma, M, e, pattern, branch):
     return chosen[0], ""
 
 
-def _bounce_exists(Gamma, M, e):
-    """True if the single-bounce orbit exists and is admissible on at least one branch."""
-    for branch in _BRANCHES:
-        try:
-            FlatLayer.__new__(FlatLayer)._init_bounce(Gamma, M, e, None, branch)
-        except ValueError:
+def _bounce_branch_exists(Gamma, M, e, branch):
+    """True if the single-bounce orbit of ``branch`` exists and is admissible."""
+    try:
+        FlatLayer.__new__(FlatLayer)._init_bounce(Gamma, M, e, None, branch)
+    except ValueError:
+        return False
+    return True
+
+
+def _pattern_table(Gamma, M, e, exclude=None):
+    """{pattern: (exists, branches or reason)} for "bounce", "stick" and (e = 0) "touch"."""
+    table = {}
+    for pat in ("bounce", "stick", "touch"):
+        if pat == exclude:
             continue
-        return True
-    return False
+        if pat == "bounce":
+            br = [b for b in _BRANCHES if _bounce_branch_exists(Gamma, M, e, b)]
+            table[pat] = (bool(br), br if br else "no admissible single-bounce orbit (17)-(19)")
+        elif pat == "touch" and e != 0.0:
+            table[pat] = (False, "touch-and-go orbits need e = 0")
+        else:
+            br, why = [], ""
+            for b in (("stable",) if pat == "stick" else _BRANCHES):
+                orbit, why_b = _contact_orbit(Gamma, M, e, pat, b)
+                if orbit is not None:
+                    br.append(b)
+                elif not why:
+                    why = why_b
+            table[pat] = (bool(br), br if br else why)
+    return table
 
 
 def _existing_patterns(Gamma, M, e, exclude=None):
     """A sentence saying which patterns exist for (Gamma, e, M), for error messages."""
     found, reasons = [], []
-    for pat in ("bounce", "stick", "touch"):
-        if pat == exclude:
-            continue
-        if pat == "bounce":
-            ok, why = _bounce_exists(Gamma, M, e), "no admissible single-bounce orbit (17)-(19)"
-        elif pat == "touch" and e != 0.0:
-            continue
-        else:
-            orbit, why = _contact_orbit(Gamma, M, e, pat, "stable")
-            if orbit is None and pat == "touch":
-                orbit, _ = _contact_orbit(Gamma, M, e, pat, "unstable")
-                if orbit is not None:
-                    found.append("'touch' (branch='unstable')")
-                    continue
-            ok = orbit is not None
+    for pat, (ok, info) in _pattern_table(Gamma, M, e, exclude).items():
         if ok:
-            found.append(repr(pat))
-        else:
-            reasons.append(f"{pat}: {why}")
+            found.append(repr(pat) if info == ["stable"] or pat == "bounce" and len(info) == 2
+                         else f"{pat!r} (branch={'/'.join(repr(b) for b in info)})")
+        elif not (pat == "touch" and e != 0.0):
+            reasons.append(f"{pat}: {info}")
     head = (f"patterns that exist for Gamma = {Gamma}, e = {e}, M = {M}: "
             f"{', '.join(found) if found else 'none'}")
     return head + (f" ({'; '.join(reasons)})" if reasons else "")
@@ -300,7 +308,7 @@ class FlatLayer:
                         return
             if e is None:
                 raise ValueError(str(exc)) from None
-            raise ValueError(f"{exc}; {_existing_patterns(Gamma, M, e, exclude='bounce')}") from None
+            raise ValueError(f"{exc}; {_existing_patterns(Gamma, M, e)}") from None
 
     def _init_contact(self, Gamma, M, e, pattern, branch):
         orbit, why = _contact_orbit(Gamma, M, e, pattern, branch)
@@ -632,6 +640,35 @@ class FlatLayer:
     def is_stable(self):
         """True if both multipliers lie strictly inside the unit circle."""
         return bool(np.max(np.abs(self.floquet_multipliers())) < 1.0)
+
+    @staticmethod
+    def patterns(Gamma, M=2, e=0.0):
+        """Which orbit patterns exist for (Gamma, e, M), and on which branches.
+
+        Parameters
+        ----------
+        Gamma : float
+        M : int, optional
+        e : float, optional
+            Restitution in [0, 1).
+
+        Returns
+        -------
+        table : dict
+            ``{pattern: (exists, info)}`` for "bounce", "stick" and "touch";
+            ``info`` is the list of branches that exist, or the reason there is
+            none.
+
+        Examples
+        --------
+        >>> t = FlatLayer.patterns(4.1, 2, e=0.0)
+        >>> t["stick"], t["bounce"][0], t["touch"][0]
+        ((True, ['stable']), False, False)
+        """
+        Gamma = check_positive(Gamma, "Gamma")
+        M = _check_order(M)
+        e = check_restitution(e, "e")
+        return _pattern_table(Gamma, M, e)
 
     @staticmethod
     def stability_window(e, M):

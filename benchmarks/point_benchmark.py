@@ -1,0 +1,183 @@
+"""Point impacts: ``PointIntegrator`` against ``method="exact"`` (and heyoka, if installed).
+
+Flat planar Neumann lattice (length 10), Gamma = 2.5, e = 0.45, started on the flat orbit at
+``t0 + 1e-6``; the exact contacts are ``t0 + kT``.  For each lattice size the methods run
+interleaved, ``--repeat`` times, in one process with one BLAS thread (threadpoolctl); the
+minimum is reported, since the machine is shared and noisy.
+
+* ``ms/period (10)``: wall time of a 10-period run (set-up included, heyoka's compilation not)
+  divided by 10;
+* ``ms/period (steady)``: ``(time(30 periods) - time(10 periods)) / 20``;
+* ``error``: max |t_contact - (t0 + kT)| over the contacts of the 10-period run.
+
+With ``--kink`` it also times a 41-node pinned kink over 2 periods (``exact`` against the new
+integrator) and checks that the event sequences agree.
+
+heyoka is a benchmark-only dependency (``pip install heyoka``); it is skipped when absent.
+
+Run::
+
+    PYTHONPATH=. python benchmarks/point_benchmark.py [--repeat 3] [--kink]    (from the repository root)
+"""
+import argparse
+import time
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+import tps_solver as tps
+from tps_solver.fda import flat_state, kink_state
+from tps_solver.fda.events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
+from tps_solver.fda.point import PointIntegrator
+
+GAMMA, E, M = 2.5, 0.45, 2
+LENGTH = 10.0
+
+
+def run_point(lattice, w0, zeta0, t_start, t_end, stick_velocity=1e-6):
+    """The loop body of ``simulate`` around ``PointIntegrator``; returns the event records."""
+    n = lattice.n_nodes
+    w, zeta = np.array(w0, dtype=float), np.array(zeta0, dtype=float)
+    stuck = np.zeros(n, dtype=bool)
+    rule, _ = make_impact_rule("point")
+    log = EventLog(t_start, 100 * n)
+    prop = PointIntegrator(lattice, GAMMA, E)
+    t = t_start
+    while t < t_end:
+        step = prop.advance(t, w, zeta, stuck, t_end)
+        t, w, zeta, contact, liftoff = step.t, step.w, step.zeta, step.contact, step.liftoff
+        if contact.size:
+            apply_contacts(t, w, zeta, stuck, contact, lattice, GAMMA, E, rule, stick_velocity, log)
+            liftoff = np.union1d(liftoff, pulled_off(t, w, stuck, lattice, GAMMA))
+        if liftoff.size:
+            liftoff = liftoff[stuck[liftoff]]
+            apply_liftoff(t, w, zeta, stuck, liftoff, log)
+    return log.to_array()
+
+
+def run_exact(lattice, w0, zeta0, t_start, t_end):
+    return tps.simulate(lattice, GAMMA, E, w0, zeta0, t_start=t_start, t_end=t_end, method="exact").events
+
+
+class Heyoka:
+    """The same lattice as a heyoka Taylor integrator with one terminal event per node."""
+
+    def __init__(self, lattice):
+        import heyoka as hy
+
+        self.hy = hy
+        n = lattice.n_nodes
+        L = lattice.operator
+        w = list(hy.make_vars(*[f"w{i}" for i in range(n)]))
+        z = list(hy.make_vars(*[f"z{i}" for i in range(n)]))
+        g = hy.sin(hy.time) - 1.0 / GAMMA
+        sys = [(w[i], hy.sum([L[i, j] * w[j] for j in np.flatnonzero(L[i])]) + g) for i in range(n)]
+        sys += [(z[i], w[i]) for i in range(n)]
+        events = [hy.t_event(z[i], direction=hy.event_direction.negative) for i in range(n)]
+        tic = time.perf_counter()
+        self.ta = hy.taylor_adaptive(sys, np.zeros(2 * n), t_events=events)
+        self.compile_time = time.perf_counter() - tic
+        self.n = n
+
+    def __call__(self, lattice, w0, zeta0, t_start, t_end):
+        ta, n = self.ta, self.n
+        ta.time = t_start
+        ta.state[:n] = w0
+        ta.state[n:] = zeta0
+        times = []
+        while True:
+            ta.propagate_until(t_end)
+            if ta.time >= t_end:
+                break
+            s = ta.state
+            wv, zv = s[:n], s[n:]
+            # the simultaneous set (54): every node at the plate to round-off, approaching
+            con = (zv <= np.maximum(1e-12 * np.abs(wv), 1e-15)) & (wv < 0)
+            times.extend([ta.time] * int(np.count_nonzero(con)))
+            s[:n][con] = -E * wv[con]
+            s[n:][con] = 0.0
+        return np.rec.fromarrays([np.array(times)], names="t")
+
+
+def contact_error(events, fl):
+    t = np.asarray(events.t)
+    k = np.rint((t - fl.t0) / fl.period)
+    return float(np.max(np.abs(t - fl.t0 - k * fl.period))) if t.size else float("nan")
+
+
+def flat_table(repeat):
+    fl = tps.FlatLayer(GAMMA, M, E)
+    t0 = fl.t0 + 1e-6
+    rows = []
+    for n in (21, 101):
+        lat = tps.Lattice.planar(n_nodes=n, length=LENGTH)
+        w, z = flat_state(lat, fl, t0)
+        methods = {"exact": run_exact, "point": lambda *a: run_point(*a)}
+        try:
+            hyk = Heyoka(lat)
+            methods["heyoka"] = hyk
+            print(f"n = {n}: heyoka compiled in {hyk.compile_time:.2f} s (not timed)")
+        except ImportError:
+            print("heyoka not installed: skipped")
+        best = {name: [np.inf, np.inf] for name in methods}
+        errors = {}
+        for _ in range(repeat):
+            for name, fn in methods.items():
+                for i, periods in enumerate((10, 30)):
+                    tic = time.perf_counter()
+                    ev = fn(lat, w, z, t0, t0 + periods * fl.period + 0.5)
+                    best[name][i] = min(best[name][i], time.perf_counter() - tic)
+                    if periods == 10:
+                        errors[name] = contact_error(ev, fl)
+                        n_sets = np.unique(np.asarray(ev.t)).size
+                        assert n_sets == 10, (name, n_sets)
+        for name in methods:
+            t10, t30 = best[name]
+            rows.append((n, name, 1e3 * t10 / 10, 1e3 * (t30 - t10) / 20, errors[name]))
+    print("\n| nodes | method | ms/period (10) | ms/period (steady) | contact-time error, 10 periods |")
+    print("|---|---|---|---|---|")
+    for n, name, a, b, err in rows:
+        print(f"| {n} | {name} | {a:.3f} | {b:.3f} | {err:.1e} |")
+    print("\nratios (steady state):")
+    for n in (21, 101):
+        sel = {name: b for m, name, a, b, err in rows if m == n}
+        line = f"  n = {n}: exact/point = {sel['exact'] / sel['point']:.1f}"
+        if "heyoka" in sel:
+            line += f", point/heyoka = {sel['point'] / sel['heyoka']:.2f}"
+        print(line)
+
+
+def kink_check(repeat):
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=41, length=20.0, boundary="pinned")
+    t0 = fl.t0 + 1.0
+    w, z = kink_state(lat, fl, t0, width=2.0)
+    t_end = t0 + 2 * fl.period
+    best = {"exact": np.inf, "point": np.inf}
+    for _ in range(repeat):
+        tic = time.perf_counter()
+        a = run_exact(lat, w, z, t0, t_end)
+        best["exact"] = min(best["exact"], time.perf_counter() - tic)
+        tic = time.perf_counter()
+        b = run_point(lat, w, z, t0, t_end)
+        best["point"] = min(best["point"], time.perf_counter() - tic)
+    same = a.size == b.size and np.array_equal(a.node, b.node) and np.array_equal(a.kind, b.kind)
+    dt = float(np.max(np.abs(a.t - b.t))) if same else float("nan")
+    print(f"\nkink, 41 nodes, 2 periods: {a.size} events; exact {best['exact']:.2f} s, point "
+          f"{best['point']:.2f} s (ratio {best['exact'] / best['point']:.1f}); same nodes and kinds: "
+          f"{same}; max |dt| = {dt:.1e}")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--kink", action="store_true")
+    args = parser.parse_args()
+    with threadpool_limits(1):
+        flat_table(args.repeat)
+        if args.kink:
+            kink_check(max(1, args.repeat // 2))
+
+
+if __name__ == "__main__":
+    main()
