@@ -65,7 +65,7 @@ def test_f2_orbit_started_on_it_is_f2_with_the_floquet_multipliers():
 
 
 def test_soft_f2_multipliers_match_the_soft_flat_orbit_monodromy():
-    from tps_solver.fda.regularised import SoftFlatOrbit     # independent reference (per-mode monodromy)
+    from tps_solver.flat_soft import SoftFlatOrbit     # independent reference (per-mode monodromy)
     orb = SoftFlatOrbit(2.5, 2, 0.45, 0.3)
     ts = orb.t_exit + 1.0
     w, z = orb.state(ts)
