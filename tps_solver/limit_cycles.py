@@ -42,6 +42,7 @@ import math
 
 import numpy as np
 
+from . import io
 from ._result import Bunch
 from ._checks import check_choice, check_int, check_positive
 from .fda import Lattice, flat_state, simulate
@@ -85,6 +86,10 @@ class StabilityResult(Bunch):
         larger than a quarter of the cut-off length.
     lattice, method, period, section_time
     """
+
+    def save(self, path):
+        """Write the result to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.io`); returns the path."""
+        return io.save(self, path)
 
 
 def _is_flat(obj):

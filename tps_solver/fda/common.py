@@ -1,6 +1,7 @@
 """Helpers shared by the FDA driver and its integrators: the result type, time windows, samples."""
 import numpy as np
 
+from .. import io
 from .._checks import check_array, check_real
 from .._result import Bunch
 
@@ -43,6 +44,10 @@ class SimulationResult(Bunch):
     n_steps : int
         Search steps (exact) or solver steps (ode).
     """
+
+    def save(self, path):
+        """Write the result to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.io`); returns the path."""
+        return io.save(self, path)
 
 
 def check_time_window(t_start, t_end, t_eval):

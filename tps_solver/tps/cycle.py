@@ -35,6 +35,7 @@ import time
 import numpy as np
 from scipy.linalg import eigh
 
+from .. import io
 from .._checks import check_int, check_positive, check_real
 from ..flat import FlatLayer
 from ..flight import phi1, taylor_tail
@@ -138,6 +139,10 @@ class LatticeCycle(PeriodicOrbit):
         """
         t = self.as_times(t)
         return self._height_raw(t) - self.zeta_offset[None, :]
+
+    def save(self, path):
+        """Write the cycle to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.io`); returns the path."""
+        return io.save(self, path)
 
     def _height_raw(self, t):
         tau = np.mod(t[:, None] - self.tc[None, :], self.period)

@@ -1,13 +1,9 @@
-"""The TPS result, :class:`PeriodicSolution`, and its file format (:func:`load`)."""
-import math
-
+"""The TPS result, :class:`PeriodicSolution`; its file format is :mod:`tps_solver.io`'s (:func:`load`)."""
 import numpy as np
 
-from ..flat import FlatLayer
+from .. import io
 from ..harmonics import evaluate, sawtooth, sawtooth_hat
-from ..lattice import Lattice
 from ..orbit import PeriodicOrbit
-from .checks import physical_checks
 
 __all__ = ["PeriodicSolution", "load"]
 
@@ -99,42 +95,19 @@ class PeriodicSolution(PeriodicOrbit):
         return self._evaluate(self.zeta_hat, t, "height") + self.zeta_shift[None, :]
 
     def save(self, path):
-        """Write the solution to a ``.npz`` file (see :func:`load`)."""
-        np.savez_compressed(
-            path, geometry=self.geometry, nodes=self.nodes, tc=self.tc, w_hat=self.w_hat,
-            zeta_hat=self.zeta_hat, zeta_shift=self.zeta_shift, Gamma=self.Gamma, e=self.e,
-            t0=self.t0, M=self.M, N=self.N, converged=self.converged, status=self.status,
-            message=self.message, nit=self.nit, residual=self.residual,
-            residual_history=self.residual_history, min_shift=self.min_shift, scheme=self.scheme,
-            tail_correction=self.tail_correction, coupling=self.coupling,
-            continuation_path=self.continuation_path,
-            lattice=np.array([] if self.lattice is None else
-                             [self.lattice.geometry, self.lattice.boundary, self.lattice.grid]))
+        """Write the solution to ``path`` (``.npz`` appended if missing); returns the path written.
+
+        The format is :mod:`tps_solver.io`'s (versioned, validated on :func:`load`).
+        """
+        return io.save(self, path)
 
 
-def load(path):
-    """Read a :class:`PeriodicSolution` written by :meth:`PeriodicSolution.save`.
+def load(path, kind=None):
+    """Read a result file written by ``save`` (with or without its ``.npz`` ending).
 
-    The physical checks are recomputed from the stored harmonics.
+    See :func:`tps_solver.io.load`: any result type is read (``kind`` restricts it);
+    what is derived -- the flat layer, the height harmonics (39)-(40), the physical
+    checks -- is recomputed, and a damaged, foreign or inconsistent file raises
+    ``ValueError`` saying what is wrong with it.
     """
-    with np.load(path, allow_pickle=False) as d:
-        data = {k: d[k] for k in d.files}
-    M = int(data["M"])
-    flat = FlatLayer(float(data["Gamma"]), M, t0=float(data["t0"]))
-    sol = PeriodicSolution(
-        converged=bool(data["converged"]), success=bool(data["converged"]),
-        status=int(data["status"]), message=str(data["message"]), nit=int(data["nit"]),
-        residual=float(data["residual"]), residual_history=data["residual_history"],
-        geometry=str(data["geometry"]), nodes=data["nodes"], tc=data["tc"], w_hat=data["w_hat"],
-        zeta_hat=data["zeta_hat"], zeta_shift=data["zeta_shift"], Gamma=float(data["Gamma"]),
-        e=float(data["e"]), t0=float(data["t0"]), M=M, N=int(data["N"]), period=2 * math.pi * M,
-        flat=flat, min_shift=bool(data["min_shift"]), scheme=str(data["scheme"]),
-        tail_correction=bool(data["tail_correction"]), coupling=float(data["coupling"]),
-        continuation_path=data["continuation_path"])
-    sol.spacing = float(np.min(np.diff(sol.nodes)))
-    sol.lattice = None
-    if data["lattice"].size:
-        geometry, boundary, grid = (str(v) for v in data["lattice"])
-        sol.lattice = Lattice(sol.nodes, geometry, boundary, grid=grid)
-    sol.checks = physical_checks(sol)
-    return sol
+    return io.load(path, kind)
