@@ -124,8 +124,8 @@ class _FreeSet:
         # for a zero mode W^(m) = g^(m-1) exactly, so by G |s| (m = 1) and |s| (m >= 2)
         factors = [np.where(zero, G if m == 1 else 1.0, (m + 1) * G * big ** (m - 1)) for m in (1, 2, 3)]
         self.forcing = md.absV @ np.column_stack([fm * abs_s for fm in factors])
-        self.lam12 = np.column_stack((self.abs_lam, self.abs_lam ** 2))
-        self.absV_T = np.ascontiguousarray(self.absV.T)
+        # [|V| |lam|; |V| lam^2] @ (e^{lam tau} |a|) = (D_1, D_2) without the forcing part
+        self.absV_lam12 = np.vstack((self.absV * self.abs_lam, self.absV * self.abs_lam ** 2))
         self.forcing_T = np.ascontiguousarray(self.forcing[:, :2].T)
         self.L_FF = _Band(md.L_FF)
         self.L_SF = _Band(md.L_SF)
@@ -155,7 +155,7 @@ class _Segment:
         self.fs, self.a, self.zeta0, self.t_c = fs, a, zeta0, t_c
         c, sn = math.cos(t_c), math.sin(t_c)
         # (u, v) = rotation of (s Re r, s Im r) by t_c
-        self.rot = np.array([[c, sn, 0.0], [-sn, c, 0.0], [0.0, 0.0, 1.0]])
+        self.cs = (c, sn)
         self.u = c * fs.s_re - sn * fs.s_im
         self.v = sn * fs.s_re + c * fs.s_im
         self.q = fs.s / Gamma
@@ -176,14 +176,18 @@ class _Segment:
         st = math.sin(tau)
         vers = 2.0 * math.sin(0.5 * tau) ** 2
         M = np.empty((nf + 3, 2))
+        c, sn = self.cs
         if self.zero_only:
             M[:nf, 0] = expo * self.a
             M[:nf, 1] = p1 * self.a
-            M[nf:] = self.rot @ np.array([[st, vers], [-vers, st - tau], [-tau, -0.5 * tau * tau]])
+            zv, zq = st - tau, -0.5 * tau * tau
+            M[nf:] = ((c * st - sn * vers, c * vers + sn * zv), (-sn * st - c * vers, -sn * vers + c * zv),
+                      (-tau, zq))
         else:
             M[:nf, 0] = expo * self.a - self.v * em1 - self.q * p1
             M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * _phi2(z))
-            M[nf:] = self.rot @ np.array([[st, vers], [-vers, st], [0.0, 0.0]])
+            M[nf:] = ((c * st - sn * vers, c * vers + sn * st), (-sn * st - c * vers, -sn * vers + c * st),
+                      (0.0, 0.0))
         self._memo = (tau, M, expo)
         return M, expo
 
@@ -193,8 +197,8 @@ class _Segment:
         st = math.sin(tau)
         vers = 2.0 * math.sin(0.5 * tau) ** 2
         cw = M[:self.fs.nf, 0] + self.u * st - self.v * vers
-        if self.zero_only:
-            cw = cw - self.q * tau - self.v * (np.expm1(self.fs.lam * tau))
+        if self.zero_only:                  # q is supported on zero modes: q tau phi_1 = q tau
+            cw = cw - self.q * tau
         return cw
 
     def state(self, tau):
@@ -409,7 +413,7 @@ class PointIntegrator(Integrator):
                 decay = abs_a
             g = math.sin(t_now) - 1.0 / Gamma
             accF = fs.L_FF.dot(wF) + g
-            AB = (fs.lam12 * decay[:, None]).T @ fs.absV_T + fs.forcing_T
+            AB = (fs.absV_lam12 @ decay).reshape(2, nf) + fs.forcing_T
             A, B = AB[0], AB[1]
             # safe steps of the heights (row 0) and, for rising nodes (w >= 0 to round-off), of
             # the velocities' lower bound (row 1): one pass over both
