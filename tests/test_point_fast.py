@@ -6,6 +6,7 @@ then the shared event layer: contacts, pull-off, lift-off).
 """
 import math
 
+import mpmath
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -233,3 +234,14 @@ def test_search_bound_raises():
     prop = PointIntegrator(lat, GAMMA, E, max_steps=2)
     with pytest.raises(RuntimeError, match="2 steps"):
         prop.advance(t0, w, z, np.zeros(5, dtype=bool), t0 + 40.0)
+
+
+def test_phi2_against_mpmath():
+    from tps_solver.fda.point import _phi2
+
+    z = np.concatenate((-np.logspace(-20, 1.5, 200), [0.0], np.logspace(-12, -1.01, 30),
+                        -np.linspace(0.09, 0.11, 21)))
+    with mpmath.workdps(40):
+        ref = np.array([float((mpmath.expm1(mpmath.mpf(x)) - mpmath.mpf(x)) / mpmath.mpf(x) ** 2) if x
+                        else 0.5 for x in z])
+    np.testing.assert_allclose(_phi2(z, np.expm1(z)), ref, rtol=2e-15, atol=0)

@@ -185,7 +185,7 @@ class _Segment:
                       (-tau, zq))
         else:
             M[:nf, 0] = expo * self.a - self.v * em1 - self.q * p1
-            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * _phi2(z))
+            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * _phi2(z, em1))
             M[nf:] = ((c * st - sn * vers, c * vers + sn * st), (-sn * st - c * vers, -sn * vers + c * st),
                       (0.0, 0.0))
         self._memo = (tau, M, expo)
@@ -384,7 +384,7 @@ class PointIntegrator(Integrator):
         eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
         eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
         at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
-        if np.any(at_plate):
+        if at_plate.any():
             # released stuck nodes (a = 0, da/dt > 0): certified for 3 (da/dt) / D_3, and exempted
             # from contact detection until their height exceeds the modal round-off (a guard)
             eps_a = 64 * _EPS * (1.0 + abs(g0) + fs.L_FF.absdot(np.abs(wF)))
@@ -395,7 +395,7 @@ class PointIntegrator(Integrator):
             self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
                                                           np.cbrt(6.0 * eps_z / jerk[rel]))
         release = self._guard[F] - t0
-        guarded = bool(np.any(release > 0.0))
+        guarded = bool((release > 0.0).any())
         fv, dv = np.empty((2, nf)), np.empty((2, nf))
         seg = _Segment(fs, a, zeta0, t0, Gamma)
         steps = 0
@@ -483,7 +483,7 @@ class PointIntegrator(Integrator):
         isf = group < fs.nf
         rows = group[isf]
         out[isf] = zeta0[rows] + fs.VP[rows] @ M[:, 1]
-        if not np.all(isf):
+        if not isf.all():
             k = group[~isf] - fs.nf
             cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
             wn = (fs.VP[cols.ravel()] @ M[:, 0]).reshape(cols.shape)
@@ -503,7 +503,7 @@ class PointIntegrator(Integrator):
             group = np.flatnonzero(h < span)
             if group.size == 0:
                 group = np.array([m])
-            if not np.all(ok[group]):
+            if not ok[group].all():
                 return None
             new_span = float(np.max(upper[group]))
             if new_span <= span:
@@ -516,7 +516,7 @@ class PointIntegrator(Integrator):
         for _ in range(group.size):
             vals = self._values(seg, tau_c, group)
             early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
-            if not np.any(early):
+            if not early.any():
                 break
             j = int(group[np.argmin(vals / -fp[group])])
             tau_c = self._root(seg, j, tau, tau_c, f[j], fp[j])
@@ -594,14 +594,22 @@ def _safe_step(f, fp, A):
 _PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
 
 
-def _phi2(z):
-    r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2`, :math:`\varphi_2(0) = 1/2`; 10-term series for :math:`|z| < 0.1`."""
+def _phi2(z, em1):
+    r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2` given ``em1`` :math:`= e^z - 1`; :math:`\varphi_2(0) = 1/2`.
+
+    The Taylor series is used for :math:`|z| < 0.1`, with as many of its first 10 terms as the
+    largest such :math:`|z|` needs for a truncation below 1e-17.
+    """
     small = np.abs(z) < 0.1
-    out = np.divide(np.expm1(z) - z, z * z, out=np.empty_like(z), where=~small)
-    if np.any(small):
+    out = np.divide(em1 - z, z * z, out=np.empty_like(z), where=~small)
+    if small.any():
         zs = z[small]
-        acc = np.full_like(zs, _PHI2_SERIES[-1])
-        for c in _PHI2_SERIES[-2::-1]:
+        zmax = float(np.max(np.abs(zs)))
+        k = 1
+        while k < 10 and zmax ** k * _PHI2_SERIES[k] > 1e-17:
+            k += 1
+        acc = np.full_like(zs, _PHI2_SERIES[k - 1])
+        for c in _PHI2_SERIES[k - 2::-1] if k >= 2 else ():
             acc = acc * zs + c
         out[small] = acc
     return out
