@@ -31,6 +31,17 @@ certified search, same contact sets (54)):
   data and the banded rows of :math:`\underline L` (at most three entries per row on
   a one-dimensional lattice) are built once per free set and cached; products with
   :math:`\underline L` use the band, not a dense matrix.
+* **Exact uniform forcing.**  With no stuck node :math:`\underline\sigma_F` is a null vector
+  of :math:`\underline L_{FF}`, so gravity forces the zero modes only; the round-off
+  projections of :math:`V^{-1}\underline\sigma_F` on the other modes are dropped, and the
+  derivative bounds of a zero mode use :math:`|g| \le 1 + 1/\Gamma`, :math:`|g^{(p)}| \le 1`
+  instead of the general factor :math:`(m + 1)(1 + 1/\Gamma)` (larger safe steps).
+
+Cost: a search step is one product with ``[V | P]`` (heights and velocities of all free
+nodes) and one with :math:`|V|` (the bounds), two BLAS calls of :math:`O(n^2)` flops; the
+event itself is the rank-:math:`k` update (:math:`O(nk)`), a polish of :math:`O(n)` per
+Newton step, and the shared contact-set rule :func:`~.events.event_sets`.  A new free set
+(sticking, lift-off) costs one decomposition (cached) and one projection.
 
 Contact search (docs/design.md, hazard 4 and 5)
 -----------------------------------------------
@@ -513,6 +524,8 @@ class PointIntegrator(Integrator):
         newton = fpos[group] / -fp[group]
         lead = int(group[np.argmin(newton)])
         tau_c = self._root(seg, lead, tau, tau + upper[lead], f[lead], fp[lead])
+        if group.size == 1:
+            return tau_c
         for _ in range(group.size):
             vals = self._values(seg, tau_c, group)
             early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
