@@ -287,7 +287,7 @@ def test_derivative_bounds_hold_for_all_later_times(stuck_nodes):
     for tau1 in (0.0, 0.5, 2.0):
         decay = np.exp(fs.lam * tau1) * np.abs(a)
         D = (fs.absV_lam12 @ decay).reshape(2, fs.nf) + fs.forcing_T
-        for tau in tau1 + np.linspace(0.0, 12.0, 1201):
+        for tau in tau1 + np.linspace(0.0, 12.0, 401):
             t = 0.3 + tau
             g, dg = math.sin(t) - 1 / GAMMA, math.cos(t)
             cw = seg.velocity_amplitudes(tau)
