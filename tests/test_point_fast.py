@@ -6,6 +6,7 @@ then the shared event layer: contacts, pull-off, lift-off).
 """
 import math
 
+import mpmath
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -233,3 +234,65 @@ def test_search_bound_raises():
     prop = PointIntegrator(lat, GAMMA, E, max_steps=2)
     with pytest.raises(RuntimeError, match="2 steps"):
         prop.advance(t0, w, z, np.zeros(5, dtype=bool), t0 + 40.0)
+
+
+def test_phi2_against_mpmath():
+    from tps_solver.fda.point import _phi2
+
+    z = np.concatenate((-np.logspace(-20, 1.5, 200), [0.0], np.logspace(-12, -1.01, 30),
+                        -np.linspace(0.09, 0.11, 21)))
+    with mpmath.workdps(40):
+        ref = np.array([float((mpmath.expm1(mpmath.mpf(x)) - mpmath.mpf(x)) / mpmath.mpf(x) ** 2) if x
+                        else 0.5 for x in z])
+    np.testing.assert_allclose(_phi2(z, np.expm1(z)), ref, rtol=2e-15, atol=0)
+
+
+@pytest.mark.parametrize("stuck_nodes", [[], [3, 4, 9]])
+def test_closed_form_flight_matches_exact_segment(stuck_nodes):
+    # the rewritten forced response against method="exact"'s Segment (forced_response)
+    from tps_solver.fda.exact import Segment
+    from tps_solver.fda.point import _FreeSet, _Segment
+
+    lat = tps.Lattice.planar(n_nodes=13, length=6.0, boundary="pinned")
+    free = np.ones(13, dtype=bool)
+    free[stuck_nodes] = False
+    rng = np.random.default_rng(1)
+    fs = _FreeSet(lat, free, GAMMA)
+    w0, z0 = rng.normal(size=fs.nf), rng.uniform(0.5, 1.5, size=fs.nf)
+    t_c = 0.7
+    ref = Segment(fs.modes, t_c, w0, z0, GAMMA)
+    seg = _Segment(fs, fs.Vinv @ w0, z0, t_c, GAMMA)
+    assert fs.zero_only == (not stuck_nodes)
+    for tau in (0.0, 1e-7, 0.03, 0.9, 4.0):
+        w_ref, z_ref = ref.state(tau)
+        w, z, _ = seg.state(tau)
+        np.testing.assert_allclose(w, w_ref, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(z, z_ref, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(fs.V @ seg.velocity_amplitudes(tau), w, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("stuck_nodes", [[], [3, 4, 9]])
+def test_derivative_bounds_hold_for_all_later_times(stuck_nodes):
+    # the certificate of the search: D_1 >= |w'|, D_2 >= |w''| from tau_1 on (zero modes: G, 1)
+    from tps_solver.fda.point import _FreeSet, _Segment
+
+    lat = tps.Lattice.planar(n_nodes=13, length=6.0, boundary="neumann")
+    free = np.ones(13, dtype=bool)
+    free[stuck_nodes] = False
+    fs = _FreeSet(lat, free, GAMMA)
+    rng = np.random.default_rng(2)
+    a = fs.Vinv @ rng.normal(size=fs.nf)
+    seg = _Segment(fs, a, np.ones(fs.nf), 0.3, GAMMA)
+    worst = 0.0
+    for tau1 in (0.0, 0.5, 2.0):
+        decay = np.exp(fs.lam * tau1) * np.abs(a)
+        D = (fs.absV_lam12 @ decay).reshape(2, fs.nf) + fs.forcing_T
+        for tau in tau1 + np.linspace(0.0, 12.0, 401):
+            t = 0.3 + tau
+            g, dg = math.sin(t) - 1 / GAMMA, math.cos(t)
+            cw = seg.velocity_amplitudes(tau)
+            dcw = fs.lam * cw + g * fs.s
+            d2cw = fs.lam * dcw + dg * fs.s
+            ratio = np.abs(np.vstack((fs.V @ dcw, fs.V @ d2cw))) / D
+            worst = max(worst, float(ratio.max()))
+    assert worst <= 1.0 and worst > 0.3          # valid, and not vacuous

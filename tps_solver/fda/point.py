@@ -31,6 +31,17 @@ certified search, same contact sets (54)):
   data and the banded rows of :math:`\underline L` (at most three entries per row on
   a one-dimensional lattice) are built once per free set and cached; products with
   :math:`\underline L` use the band, not a dense matrix.
+* **Exact uniform forcing.**  With no stuck node :math:`\underline\sigma_F` is a null vector
+  of :math:`\underline L_{FF}`, so gravity forces the zero modes only; the round-off
+  projections of :math:`V^{-1}\underline\sigma_F` on the other modes are dropped, and the
+  derivative bounds of a zero mode use :math:`|g| \le 1 + 1/\Gamma`, :math:`|g^{(p)}| \le 1`
+  instead of the general factor :math:`(m + 1)(1 + 1/\Gamma)` (larger safe steps).
+
+Cost: a search step is one product with ``[V | P]`` (heights and velocities of all free
+nodes) and one with :math:`|V|` (the bounds), two BLAS calls of :math:`O(n^2)` flops; the
+event itself is the rank-:math:`k` update (:math:`O(nk)`), a polish of :math:`O(n)` per
+Newton step, and the shared contact-set rule :func:`~.events.event_sets`.  A new free set
+(sticking, lift-off) costs one decomposition (cached) and one projection.
 
 Contact search (docs/design.md, hazard 4 and 5)
 -----------------------------------------------
@@ -124,8 +135,8 @@ class _FreeSet:
         # for a zero mode W^(m) = g^(m-1) exactly, so by G |s| (m = 1) and |s| (m >= 2)
         factors = [np.where(zero, G if m == 1 else 1.0, (m + 1) * G * big ** (m - 1)) for m in (1, 2, 3)]
         self.forcing = md.absV @ np.column_stack([fm * abs_s for fm in factors])
-        self.lam12 = np.column_stack((self.abs_lam, self.abs_lam ** 2))
-        self.absV_T = np.ascontiguousarray(self.absV.T)
+        # [|V| |lam|; |V| lam^2] @ (e^{lam tau} |a|) = (D_1, D_2) without the forcing part
+        self.absV_lam12 = np.vstack((self.absV * self.abs_lam, self.absV * self.abs_lam ** 2))
         self.forcing_T = np.ascontiguousarray(self.forcing[:, :2].T)
         self.L_FF = _Band(md.L_FF)
         self.L_SF = _Band(md.L_SF)
@@ -155,7 +166,7 @@ class _Segment:
         self.fs, self.a, self.zeta0, self.t_c = fs, a, zeta0, t_c
         c, sn = math.cos(t_c), math.sin(t_c)
         # (u, v) = rotation of (s Re r, s Im r) by t_c
-        self.rot = np.array([[c, sn, 0.0], [-sn, c, 0.0], [0.0, 0.0, 1.0]])
+        self.cs = (c, sn)
         self.u = c * fs.s_re - sn * fs.s_im
         self.v = sn * fs.s_re + c * fs.s_im
         self.q = fs.s / Gamma
@@ -176,14 +187,18 @@ class _Segment:
         st = math.sin(tau)
         vers = 2.0 * math.sin(0.5 * tau) ** 2
         M = np.empty((nf + 3, 2))
+        c, sn = self.cs
         if self.zero_only:
             M[:nf, 0] = expo * self.a
             M[:nf, 1] = p1 * self.a
-            M[nf:] = self.rot @ np.array([[st, vers], [-vers, st - tau], [-tau, -0.5 * tau * tau]])
+            zv, zq = st - tau, -0.5 * tau * tau
+            M[nf:] = ((c * st - sn * vers, c * vers + sn * zv), (-sn * st - c * vers, -sn * vers + c * zv),
+                      (-tau, zq))
         else:
             M[:nf, 0] = expo * self.a - self.v * em1 - self.q * p1
-            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * _phi2(z))
-            M[nf:] = self.rot @ np.array([[st, vers], [-vers, st], [0.0, 0.0]])
+            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * _phi2(z, em1))
+            M[nf:] = ((c * st - sn * vers, c * vers + sn * st), (-sn * st - c * vers, -sn * vers + c * st),
+                      (0.0, 0.0))
         self._memo = (tau, M, expo)
         return M, expo
 
@@ -193,8 +208,8 @@ class _Segment:
         st = math.sin(tau)
         vers = 2.0 * math.sin(0.5 * tau) ** 2
         cw = M[:self.fs.nf, 0] + self.u * st - self.v * vers
-        if self.zero_only:
-            cw = cw - self.q * tau - self.v * (np.expm1(self.fs.lam * tau))
+        if self.zero_only:                  # q is supported on zero modes: q tau phi_1 = q tau
+            cw = cw - self.q * tau
         return cw
 
     def state(self, tau):
@@ -380,7 +395,7 @@ class PointIntegrator(Integrator):
         eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
         eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
         at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
-        if np.any(at_plate):
+        if at_plate.any():
             # released stuck nodes (a = 0, da/dt > 0): certified for 3 (da/dt) / D_3, and exempted
             # from contact detection until their height exceeds the modal round-off (a guard)
             eps_a = 64 * _EPS * (1.0 + abs(g0) + fs.L_FF.absdot(np.abs(wF)))
@@ -391,7 +406,7 @@ class PointIntegrator(Integrator):
             self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
                                                           np.cbrt(6.0 * eps_z / jerk[rel]))
         release = self._guard[F] - t0
-        guarded = bool(np.any(release > 0.0))
+        guarded = bool((release > 0.0).any())
         fv, dv = np.empty((2, nf)), np.empty((2, nf))
         seg = _Segment(fs, a, zeta0, t0, Gamma)
         steps = 0
@@ -409,7 +424,7 @@ class PointIntegrator(Integrator):
                 decay = abs_a
             g = math.sin(t_now) - 1.0 / Gamma
             accF = fs.L_FF.dot(wF) + g
-            AB = (fs.lam12 * decay[:, None]).T @ fs.absV_T + fs.forcing_T
+            AB = (fs.absV_lam12 @ decay).reshape(2, nf) + fs.forcing_T
             A, B = AB[0], AB[1]
             # safe steps of the heights (row 0) and, for rising nodes (w >= 0 to round-off), of
             # the velocities' lower bound (row 1): one pass over both
@@ -479,7 +494,7 @@ class PointIntegrator(Integrator):
         isf = group < fs.nf
         rows = group[isf]
         out[isf] = zeta0[rows] + fs.VP[rows] @ M[:, 1]
-        if not np.all(isf):
+        if not isf.all():
             k = group[~isf] - fs.nf
             cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
             wn = (fs.VP[cols.ravel()] @ M[:, 0]).reshape(cols.shape)
@@ -499,7 +514,7 @@ class PointIntegrator(Integrator):
             group = np.flatnonzero(h < span)
             if group.size == 0:
                 group = np.array([m])
-            if not np.all(ok[group]):
+            if not ok[group].all():
                 return None
             new_span = float(np.max(upper[group]))
             if new_span <= span:
@@ -509,10 +524,12 @@ class PointIntegrator(Integrator):
         newton = fpos[group] / -fp[group]
         lead = int(group[np.argmin(newton)])
         tau_c = self._root(seg, lead, tau, tau + upper[lead], f[lead], fp[lead])
+        if group.size == 1:
+            return tau_c
         for _ in range(group.size):
             vals = self._values(seg, tau_c, group)
             early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
-            if not np.any(early):
+            if not early.any():
                 break
             j = int(group[np.argmin(vals / -fp[group])])
             tau_c = self._root(seg, j, tau, tau_c, f[j], fp[j])
@@ -590,14 +607,22 @@ def _safe_step(f, fp, A):
 _PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
 
 
-def _phi2(z):
-    r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2`, :math:`\varphi_2(0) = 1/2`; 10-term series for :math:`|z| < 0.1`."""
+def _phi2(z, em1):
+    r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2` given ``em1`` :math:`= e^z - 1`; :math:`\varphi_2(0) = 1/2`.
+
+    The Taylor series is used for :math:`|z| < 0.1`, with as many of its first 10 terms as the
+    largest such :math:`|z|` needs for a truncation below 1e-17.
+    """
     small = np.abs(z) < 0.1
-    out = np.divide(np.expm1(z) - z, z * z, out=np.empty_like(z), where=~small)
-    if np.any(small):
+    out = np.divide(em1 - z, z * z, out=np.empty_like(z), where=~small)
+    if small.any():
         zs = z[small]
-        acc = np.full_like(zs, _PHI2_SERIES[-1])
-        for c in _PHI2_SERIES[-2::-1]:
+        zmax = float(np.max(np.abs(zs)))
+        k = 1
+        while k < 10 and zmax ** k * _PHI2_SERIES[k] > 1e-17:
+            k += 1
+        acc = np.full_like(zs, _PHI2_SERIES[k - 1])
+        for c in _PHI2_SERIES[k - 2::-1] if k >= 2 else ():
             acc = acc * zs + c
         out[small] = acc
     return out
