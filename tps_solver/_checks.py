@@ -77,12 +77,15 @@ def check_restitution(value, name="e"):
 def check_int(value, name, minimum=1, maximum=None):
     """Return ``value`` as an ``int`` >= ``minimum`` (and <= ``maximum``) or raise.
 
-    Booleans and non-integral floats are rejected.
+    Integral floats (``2.0``, ``np.float64(4.0)``) are accepted and converted;
+    booleans, non-integral and non-finite floats are rejected.
 
     Examples
     --------
     >>> check_int(2, "M")
     2
+    >>> check_int(41.0, "n_nodes")
+    41
     >>> check_int(2.5, "M")
     Traceback (most recent call last):
     ...
@@ -90,15 +93,27 @@ def check_int(value, name, minimum=1, maximum=None):
     """
     bounds = f">= {minimum}" if maximum is None else f"in [{minimum}, {maximum}]"
     message = f"{name} must be an integer {bounds}, got {value!r}"
-    if isinstance(value, bool):
+    if isinstance(value, (bool, np.bool_)):
         raise ValueError(message)
     try:
         ivalue = operator.index(value)
     except TypeError:
-        raise ValueError(message) from None
+        ivalue = _integral_float(value)
+        if ivalue is None:
+            raise ValueError(message) from None
     if ivalue < minimum or (maximum is not None and ivalue > maximum):
         raise ValueError(message)
     return int(ivalue)
+
+
+def _integral_float(value):
+    """``int(value)`` for a finite real float scalar with no fractional part, else None."""
+    if not _is_real_scalar(value):
+        return None
+    v = float(value)
+    if not np.isfinite(v) or v != int(v):
+        return None
+    return int(v)
 
 
 def check_choice(value, name, choices):

@@ -32,6 +32,7 @@ import numpy as np
 import scipy.linalg
 
 from ._checks import check_array, check_choice, check_int, check_positive
+from .budget import check_cost, lattice_cost
 
 __all__ = ["Lattice", "lattice_eigenvalues"]
 
@@ -40,8 +41,15 @@ _BOUNDARIES = ("neumann", "pinned")
 _GRIDS = ("uniform", "quasilog")
 
 
+def _check_size(n_nodes):
+    """Refuse a lattice whose dense n x n matrices are out of reach (tps_solver.budget)."""
+    check_cost("Lattice", "n_nodes", n_nodes, *lattice_cost(n_nodes),
+               hint="the Laplacian and the flux matrix are dense n_nodes x n_nodes arrays")
+
+
 def _check_nodes(nodes):
     nodes = check_array(nodes, "nodes", ndim=1)
+    _check_size(nodes.size)
     if nodes.size < 3:
         raise ValueError(f"nodes must hold at least 3 points (n_nodes >= 3), got {nodes.size}")
     if np.any(np.diff(nodes) <= 0):
@@ -142,7 +150,9 @@ class Lattice:
         Parameters
         ----------
         n_nodes : int
-            Number of nodes, >= 3 (spacing ``length / (n_nodes - 1)``).
+            Number of nodes, >= 3 (spacing ``length / (n_nodes - 1)``).  The Laplacian is
+            stored dense: a lattice whose n_nodes x n_nodes matrices do not fit in memory
+            raises ``ValueError`` before anything is allocated (:mod:`tps_solver.budget`).
         length : float
             Total length > 0.  A kink lives on the full line ``x in [-length/2, length/2]``.
         boundary : {"neumann", "pinned"}
@@ -161,6 +171,7 @@ class Lattice:
         0.5
         """
         n_nodes = check_int(n_nodes, "n_nodes", minimum=3)
+        _check_size(n_nodes)
         length = check_positive(length, "length")
         boundary = check_choice(boundary, "boundary", _BOUNDARIES)
         nodes = center + length * (np.arange(n_nodes) / (n_nodes - 1) - 0.5)
@@ -193,6 +204,7 @@ class Lattice:
         array([0., 1., 3., 7.])
         """
         n_nodes = check_int(n_nodes, "n_nodes", minimum=3)
+        _check_size(n_nodes)
         r_max = check_positive(r_max, "r_max")
         grid = check_choice(grid, "grid", _GRIDS)
         if grid == "quasilog":

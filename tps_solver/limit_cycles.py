@@ -36,7 +36,18 @@ What is measured
 * **verdict** -- ``stable`` is True when the measured growth factor is below 1
   and the last defect is below ``defect_tol``; the message states the lattice
   cut-off in force (docs/design.md, hazard 8): a verdict on a lattice with point impacts is a
-  verdict for that lattice spacing, not a converged statement.
+  verdict for that lattice spacing, not a converged statement.  When a flat layer
+  that is stable by its own Floquet multipliers is found "not stable" with point
+  impacts, the message *starts* by saying that this is the grid-scale instability
+  of point impacts (``grid_instability = True``) and points to the soft contact.
+
+Only periodic orbits are checked: a TPS result with ``converged = False`` is refused
+(``ValueError``), since its fields are not a periodic orbit of anything.
+
+Cost and interrupts: ``callback(progress)`` receives a :class:`~tps_solver._result.Bunch`
+with ``stage``, ``fraction`` (of the whole check) and ``periods_done``; a
+``KeyboardInterrupt`` returns what was measured so far with ``interrupted = True``.
+The small dense kernels run on one BLAS thread (:func:`tps_solver.budget.blas_threads`).
 """
 import math
 
@@ -45,6 +56,7 @@ import numpy as np
 from . import io
 from ._result import Bunch
 from ._checks import check_choice, check_int, check_positive
+from .budget import blas_threads, small_dense
 from .fda import Lattice, flat_state, simulate
 
 __all__ = ["check_stability", "StabilityResult"]
@@ -84,6 +96,13 @@ class StabilityResult(Bunch):
         True when the verdict depends on the grid: point impacts (whose flat-layer growth
         factor scales like 1/dx), a rule without a declared length, or a lattice spacing
         larger than a quarter of the cut-off length.
+    grid_instability : bool
+        True when a flat layer that is stable by its Floquet multipliers is found not
+        stable with point impacts: the grid-scale instability of the point-impact
+        lattice (its growth scales like 1/dx), not a property of the flat layer.
+    interrupted : bool
+        True when a ``KeyboardInterrupt`` stopped the check; the fields hold what was
+        measured so far and ``stable`` is False.
     lattice, method, period, section_time
     """
 
@@ -133,6 +152,8 @@ def _sample_solution(sol, lattice, t):
 
 def _period_map(lattice, Gamma, e, w, z, t_s, T, method, kw):
     run = simulate(lattice, Gamma, e, w, z, t_start=t_s, t_end=t_s + T, method=method, **kw)
+    if run.status == 5:
+        raise KeyboardInterrupt
     if not run.success:
         raise RuntimeError(run.message)
     if np.any(run.stuck):
@@ -140,7 +161,7 @@ def _period_map(lattice, Gamma, e, w, z, t_s, T, method, kw):
     return np.concatenate((run.w, run.zeta))
 
 
-def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6):
+def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6, tick=None):
     """Central-difference Jacobian of the period map restricted to uniform states (w, zeta)."""
     J = np.empty((2, 2))
     for col in range(2):
@@ -149,6 +170,8 @@ def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6):
             dw = sign * h if col == 0 else 0.0
             dz = sign * h if col == 1 else 0.0
             y = _period_map(lattice, Gamma, e, w + dw, z + dz, t_s, T, method, kw)
+            if tick is not None:
+                tick()
             n = lattice.n_nodes
             out.append(np.array([np.mean(y[:n]), np.mean(y[n:])]))
         J[:, col] = (out[0] - out[1]) / (2.0 * h)
@@ -156,7 +179,7 @@ def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6):
     return mu[np.argsort(-np.abs(mu), kind="stable")]
 
 
-def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h):
+def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h, tick=None):
     """One-sided (forward, backward) Jacobians of the period map in (w, zeta)."""
     n = lattice.n_nodes
     y0 = np.concatenate((w, z))
@@ -169,6 +192,8 @@ def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h):
             y[k] = max(y[k] + sign * h, 0.0) if k >= n else y[k] + sign * h
             step = y[k] - y0[k]
             J[:, k] = (_period_map(lattice, Gamma, e, y[:n], y[n:], t_s, T, method, kw) - base) / step
+            if tick is not None:
+                tick()
     return Jp, Jm
 
 
@@ -194,7 +219,7 @@ def _fit_growth(dist, saturation):
 def check_stability(solution, periods=20, n_nodes=None, method="exact", *, length=8.0,
                     boundary=None, perturbation=1e-8, seed=0, jacobian=False, jacobian_step=1e-7,
                     jacobian_rtol=1e-3, defect_tol=1e-6, saturation=1e-3, impact="point", rho_c=None,
-                    cutoff=None, **simulate_kw):
+                    cutoff=None, callback=None, **simulate_kw):
     r"""Hand a limit cycle to the FDA and measure its stability (see the module docstring).
 
     Parameters
@@ -238,12 +263,21 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     cutoff : float, optional
         Soft-contact length for ``method="soft"`` (required there); a flat layer is then
         compared with the soft model's own flat orbit.
+    callback : callable, optional
+        ``callback(progress)`` during the check, ``progress`` a Bunch with ``stage``
+        (``"reference"``, ``"perturbed"``, ``"uniform mode"``, ``"jacobian"``), ``fraction``
+        (of the whole check, in [0, 1]) and ``periods_done``.
     **simulate_kw
         Further keywords for :func:`simulate` (e.g. ``stick_velocity``, ``rtol``).
 
     Returns
     -------
     StabilityResult
+
+    Raises
+    ------
+    ValueError
+        For bad input, and for a TPS result that did not converge (not a periodic orbit).
 
     Examples
     --------
@@ -261,6 +295,8 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     saturation = check_positive(saturation, "saturation")
     if boundary is not None:
         boundary = check_choice(boundary, "boundary", ("neumann", "pinned"))
+    if callback is not None and not callable(callback):
+        raise ValueError(f"callback must be callable or None, got {type(callback).__name__}")
     kw = dict(simulate_kw, impact=impact, rho_c=rho_c)
     if method == "soft":
         cutoff = check_positive(cutoff, "cutoff") if cutoff is not None else None
@@ -290,6 +326,11 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         flat = fl
     elif all(hasattr(solution, a) for a in ("geometry", "nodes", "velocity", "height", "period")):
         sol = solution
+        if not bool(getattr(sol, "converged", True)):
+            raise ValueError(
+                f"solution must be a periodic orbit, but it did not converge (converged=False, status "
+                f"{getattr(sol, 'status', '?')}), so its fields are not a periodic orbit and there is "
+                f"nothing to check; converge it first. Its message: {getattr(sol, 'message', '')}")
         if n_nodes is not None:
             n_nodes = check_int(n_nodes, "n_nodes", minimum=3)
         own = getattr(sol, "lattice", None)
@@ -308,9 +349,43 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         raise ValueError("solution must be a FlatLayer or a PeriodicSolution (with geometry, nodes, "
                          f"velocity, height, period), got {type(solution).__name__}")
 
+    with blas_threads(1, enabled=small_dense(lattice.n_nodes)):
+        return _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method, kw, notes,
+                        perturbation, seed, jacobian, jacobian_step, jacobian_rtol, defect_tol,
+                        saturation, simulate_kw, callback)
+
+
+def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method, kw, notes, perturbation,
+             seed, jacobian, jacobian_step, jacobian_rtol, defect_tol, saturation, simulate_kw, callback):
+    """The runs of :func:`check_stability` (reference, perturbed, multipliers) and the verdict."""
+    flat_input = _is_flat(solution)
+    stages = [("reference", periods), ("perturbed", periods)]
+    if flat is not None and flat_input:
+        stages.append(("uniform mode", 4))
+    if jacobian:
+        stages.append(("jacobian", 4 * lattice.n_nodes + 1))
+    total = float(sum(p for _, p in stages))
+    done = {"periods": 0.0}
+
+    def report(stage, within=0.0):
+        if callback is not None:
+            at = done["periods"] + within
+            callback(Bunch(stage=stage, fraction=min(1.0, at / total), periods_done=at))
+
+    def runner(stage, length):
+        def cb(progress):
+            report(stage, progress.fraction * length)
+        return cb if callback is not None else None
+
+    def finish_stage(length):
+        done["periods"] += length
+
+    interrupted = False
     t_eval = t_s + T * np.arange(periods + 1)
     ref = simulate(lattice, Gamma, e, w0, z0, t_start=t_s, t_end=t_eval[-1], method=method,
-                   t_eval=t_eval, **kw)
+                   t_eval=t_eval, callback=runner("reference", periods), **kw)
+    finish_stage(periods)
+    interrupted = ref.status == 5
     Z, W = ref.zeta_eval, ref.w_eval
     k_done = Z.shape[0]
     defects = np.column_stack((np.max(np.abs(np.diff(Z, axis=0)), axis=1),
@@ -336,8 +411,14 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     if scale < 10.0 * window * max(1.0, float(np.max(np.abs(w0)))):
         notes.append(f"perturbation {scale:.3g} is within 10x of the simultaneity window time_tol = {window:g} "
                      "times the velocity: nearly simultaneous contacts are merged into sets (a time cut-off)")
-    pert = simulate(lattice, Gamma, e, w0 + dw, np.maximum(z0 + dz, 0.0), t_start=t_s, t_end=t_eval[-1],
-                    method=method, t_eval=t_eval, **kw)
+    if interrupted:
+        pert = ref                                   # nothing more is run after an interrupt
+    else:
+        pert = simulate(lattice, Gamma, e, w0 + dw, np.maximum(z0 + dz, 0.0), t_start=t_s,
+                        t_end=t_eval[-1], method=method, t_eval=t_eval, callback=runner("perturbed", periods),
+                        **kw)
+        interrupted = pert.status == 5
+    finish_stage(periods)
     k = min(pert.zeta_eval.shape[0], k_done)
     dist = np.maximum(np.max(np.abs(pert.zeta_eval[:k] - Z[:k]), axis=1),
                       np.max(np.abs(pert.w_eval[:k] - W[:k]), axis=1))
@@ -348,11 +429,28 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
 
     uniform = np.empty(0, complex)
     multipliers, kind, differentiable = np.empty(0, complex), "none", None
-    if flat is not None and _is_flat(solution):
-        uniform = _uniform_multipliers(lattice, Gamma, e, w0, z0, t_s, T, method, kw)
-        multipliers, kind = uniform, "uniform mode"
-    if jacobian:
-        Jp, Jm = _full_jacobian(lattice, Gamma, e, w0, z0, t_s, T, method, kw, jacobian_step)
+
+    def tick(stage):
+        def step():
+            finish_stage(1)
+            report(stage)
+        return step
+
+    if flat is not None and flat_input and not interrupted:
+        try:
+            uniform = _uniform_multipliers(lattice, Gamma, e, w0, z0, t_s, T, method, kw,
+                                           tick=tick("uniform mode"))
+            multipliers, kind = uniform, "uniform mode"
+        except KeyboardInterrupt:
+            interrupted = True
+    Jp = None
+    if jacobian and not interrupted:
+        try:
+            Jp, Jm = _full_jacobian(lattice, Gamma, e, w0, z0, t_s, T, method, kw, jacobian_step,
+                                    tick=tick("jacobian"))
+        except KeyboardInterrupt:
+            interrupted = True
+    if Jp is not None:
         gap = float(np.max(np.abs(Jp - Jm)))
         big = float(np.max(np.abs(Jp) + np.abs(Jm)))
         differentiable = gap <= jacobian_rtol * big
@@ -376,10 +474,23 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     if limited:
         notes.append("verdict is cut-off-limited: " + why)
     final_defect = float(np.max(defects[-1])) if defects.size else float("nan")
-    stable = bool(ref.success and np.isfinite(growth) and growth < 1.0 and final_defect <= defect_tol)
-    if not ref.success:
+    stable = bool(not interrupted and ref.success and np.isfinite(growth) and growth < 1.0
+                  and final_defect <= defect_tol)
+    if not ref.success and ref.status != 5:
         notes.insert(0, f"reference run stopped: {ref.message}")
+    grid = bool(not stable and not interrupted and flat_input and cutoff["kind"] == "lattice spacing"
+                and flat is not None and getattr(flat, "is_stable", False) and ref.success)
     verdict = "stable" if stable else "not stable"
+    if interrupted:
+        verdict = (f"interrupted (KeyboardInterrupt) after {done['periods']:.3g} of {total:.3g} periods; "
+                   f"no verdict, the fields hold what was measured so far; not stable")
+    elif grid:
+        mu = float(np.max(np.abs(flat.floquet_multipliers())))
+        verdict = (f"not stable, by the grid-scale instability of point impacts, not of the flat layer "
+                   f"(its Floquet multipliers have |mu| = {mu:.3g} < 1; the growth of point impacts scales "
+                   f"like 1/dx under refinement, docs/design.md, hazard 8); for a verdict that converges "
+                   f"under refinement use the soft contact, check_stability(..., method='soft', "
+                   f"cutoff=0.3) with lattice spacing <= cutoff/4. Measured: not stable")
     msg = (f"{verdict} on this lattice ({lattice.geometry}, {lattice.n_nodes} nodes, "
            f"cut-off: {cutoff['kind']} = {cutoff['length'] if cutoff['length'] is None else format(cutoff['length'], '.4g')}): "
            f"growth factor {growth:.4g} per period, "
@@ -393,4 +504,5 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         multipliers=multipliers, multipliers_kind=kind, uniform_multipliers=uniform,
         differentiable=differentiable, stable=stable, message=msg, events_per_period=events_per_period,
         sticking_nodes=sticking, cutoff=cutoff, cutoff_limited=limited, lattice=lattice, method=method, period=T,
-        section_time=t_s, periods=periods, success=bool(ref.success))
+        section_time=t_s, periods=periods, success=bool(ref.success), grid_instability=grid,
+        interrupted=bool(interrupted))

@@ -11,18 +11,20 @@ import numpy as np
 
 from .._checks import check_array, check_choice, check_int, check_nonnegative, check_positive, check_restitution
 from .._result import Bunch
+from ..budget import blas_threads, small_dense
 from ..lattice import Lattice
 from .common import SimulationResult, check_time_window, stack_samples
 from .events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
 from .exact import ExactPropagator
 from .ode import OdePropagator
+from .point import PointIntegrator
 from .soft_radau import RadauSoftIntegrator
 
 __all__ = ["simulate", "METHODS"]
 
 #: method name -> :class:`~.base.Integrator` subclass
-METHODS = {"exact": ExactPropagator, "ode": OdePropagator, "soft": RadauSoftIntegrator,
-           "soft-radau": RadauSoftIntegrator}
+METHODS = {"exact": ExactPropagator, "point": PointIntegrator, "ode": OdePropagator,
+           "soft": RadauSoftIntegrator, "soft-radau": RadauSoftIntegrator}
 
 
 def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exact", *,
@@ -63,13 +65,17 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     callback : callable, optional
         ``callback(progress)`` once per forcing cycle :math:`2\pi` of simulated time and at the
         end, with a :class:`~tps_solver._result.Bunch` ``progress`` holding ``t``, ``t_start``,
-        ``t_end``, ``fraction`` (of the interval done) and ``n_events``.
+        ``t_end``, ``fraction`` (of the interval done) and ``n_events``.  A
+        ``KeyboardInterrupt`` returns ``status=5`` with the state reached.
     **options
         Options of the chosen method (an option that does not apply to it raises
         ``ValueError`` naming it):
 
         * ``"exact"`` (:class:`~.exact.ExactPropagator`): ``time_tol`` (simultaneity window of a
           contact set, default 1e-12), ``max_steps``, ``cache_size``;
+        * ``"point"`` (:class:`~.point.PointIntegrator`): the same model and options as
+          ``"exact"``, with the modal amplitudes carried across events by rank-k updates
+          (2-3x faster; the same events);
         * ``"ode"`` (:class:`~.ode.OdePropagator`): ``time_tol`` (default 1e-9), ``rtol``,
           ``atol`` (default 1e-12), ``ode_solver`` (a scipy ``OdeSolver`` with dense output,
           default ``"DOP853"``), ``samples_per_step`` (default 8);
@@ -81,6 +87,13 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     Returns
     -------
     SimulationResult
+
+    Notes
+    -----
+    On lattices of at most :data:`tps_solver.budget.SMALL_DENSE` nodes the integration runs
+    with one BLAS thread (:func:`tps_solver.budget.blas_threads`, through threadpoolctl when it
+    is installed): the dense kernels are small and a second thread only costs (measured on a
+    2-core machine: ``eigh`` of 200 x 200, 23 ms on one thread against 61 ms on two).
 
     Examples
     --------
@@ -109,6 +122,7 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     if max_events_per_cycle is None:
         max_events_per_cycle = 100 * n
     max_events_per_cycle = check_int(max_events_per_cycle, "max_events_per_cycle", minimum=1)
+    rule, cutoff = None, None
     if cls.impulsive:
         if np.any(zeta < 0.0):
             raise ValueError("zeta0 must be >= 0 at every node (the layer cannot be below the plate)")
@@ -135,6 +149,15 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
                 raise ValueError(f"{name} does not apply to method={method!r} (the soft contact resolves "
                                  f"contacts itself), got {name}={value!r}")
         stuck = zeta < 0.0
+    with blas_threads(1, enabled=small_dense(n)):
+        return _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, method, options,
+                          cutoff, rule, stick_velocity, max_events_per_cycle, callback)
+
+
+def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, method, options, cutoff,
+               rule, stick_velocity, max_events_per_cycle, callback):
+    """The one driver loop (see :func:`simulate`)."""
+    n = lattice.n_nodes
     prop = cls(lattice, Gamma, e, **options)
     if not cls.impulsive:
         cutoff = dict(prop.cutoff_info)

@@ -9,12 +9,31 @@ from ..contact import contact_times
 __all__ = ["physical_checks"]
 
 
+#: Bytes of the (times x harmonics) phase block of one evaluation of the series.
+BLOCK_BYTES = 32e6
+
+
+def _height_blocks(sol, t):
+    """``sol.height(t)`` evaluated in blocks of times, so the phase matrix stays <= BLOCK_BYTES."""
+    per_time = 16.0 * (2 * sol.N + 1)
+    step = max(1, int(BLOCK_BYTES // per_time))
+    if t.size <= step:
+        return np.asarray(sol.height(t), dtype=float)
+    return np.concatenate([np.asarray(sol.height(t[i:i + step]), dtype=float)
+                           for i in range(0, t.size, step)], axis=0)
+
+
 def physical_checks(sol, n_times=None):
-    """Checks of the single-contact assumption on the TPS output (docs/design.md, hazard 3)."""
+    """Checks of the single-contact assumption on the TPS output (docs/design.md, hazard 3).
+
+    ``all_pass`` also requires ``sol.converged``: the fields of a run that did not converge
+    are not a solution, whatever they look like (``converged`` is repeated in the result).
+    The series is evaluated at ``max(64 N, 2048)`` times in blocks of bounded memory.
+    """
     T, N, M = sol.period, sol.N, sol.M
     n_times = n_times or max(64 * N, 2048)
     t = np.linspace(0.0, T, n_times, endpoint=False)
-    zeta = sol.height(t)                                     # (n_times, n_nodes)
+    zeta = _height_blocks(sol, t)                            # (n_times, n_nodes)
     scale = max(1.0, float(np.max(np.abs(zeta))))
     min_zeta = float(np.min(zeta))
     # contacts: local minima of zeta (periodic) that come within tol of the plate
@@ -35,8 +54,9 @@ def physical_checks(sol, n_times=None):
     restitution_residual = float(np.max(np.abs(jump_ratio - 1.0)))
     zeta_ok = min_zeta >= -1e-6 * scale
     single = bool(np.all(contacts <= 1))
+    converged = bool(getattr(sol, "converged", True))
     return Bunch(
         min_zeta=min_zeta, zeta_nonnegative=bool(zeta_ok), contacts_per_period=contacts,
         single_contact=single, tc_is_steep_crossing=steep, selected_tc=sel.tc,
-        jump_ratio=jump_ratio, restitution_residual=restitution_residual,
-        all_pass=bool(zeta_ok and single and np.all(steep) and restitution_residual < 0.1))
+        jump_ratio=jump_ratio, restitution_residual=restitution_residual, converged=converged,
+        all_pass=bool(converged and zeta_ok and single and np.all(steep) and restitution_residual < 0.1))

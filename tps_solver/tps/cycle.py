@@ -36,14 +36,19 @@ import numpy as np
 from scipy.linalg import eigh
 
 from .. import io
-from .._checks import check_int, check_positive, check_real
+from .. import defaults
+from .._checks import check_int, check_positive, check_real, check_restitution
+from ..budget import blas_threads, check_cost, cycle_cost, small_dense
 from ..flat import FlatLayer
 from ..flight import phi1, taylor_tail
 from ..lattice import Lattice
 from ..orbit import PeriodicOrbit
 from .engine import continuation as run_continuation, newton
 from .problems import decoupled_spacing
-from .solvers import lattice_initial_tc
+from .solvers import lattice_initial_tc, next_steps
+
+#: Bytes of one block of the (rows x nodes x modes) tensors of the cycle residual.
+BLOCK_BYTES = 64e6
 
 __all__ = ["LatticeCycle", "solve_lattice_cycle"]
 
@@ -90,7 +95,8 @@ class LatticeCycle(PeriodicOrbit):
     residual : float
     residual_history : ndarray of float
     tc : ndarray of float, shape (n_nodes,)
-    nodes : ndarray of float, shape (n_nodes,)
+    nodes, nodes_requested : ndarray of float, shape (n_nodes,)
+        The lattice's nodes (the same: a coupling < 1 scales the operator, not the nodes).
     geometry : str
         The lattice's geometry ("planar" or "axisymmetric").
     coupling : float
@@ -122,6 +128,9 @@ class LatticeCycle(PeriodicOrbit):
         ndarray of float, shape (n_times, n_nodes)
         """
         t = self.as_times(t)
+        return np.concatenate([self._velocity_block(tb) for tb in _time_blocks(t, self.tc.size)], axis=0)
+
+    def _velocity_block(self, t):
         tau = np.mod(t[:, None] - self.tc[None, :], self.period)      # (nt, k)
         Hk = _H(self.eigenvalues[None, None, :], tau[:, :, None], self.period)  # (nt, k, p)
         # w_j = -cos t + J sum_k sum_p V_jp H_p(tau_k) Vinv_pk
@@ -145,10 +154,24 @@ class LatticeCycle(PeriodicOrbit):
         return io.save(self, path)
 
     def _height_raw(self, t):
+        return np.concatenate([self._height_block(tb) for tb in _time_blocks(t, self.tc.size)], axis=0)
+
+    def _height_block(self, t):
         tau = np.mod(t[:, None] - self.tc[None, :], self.period)
         Hk = _H_int(self.eigenvalues[None, None, :], tau[:, :, None], self.period)
         coef = np.einsum("tkp,pk->tp", Hk, self.modes_inv)
         return -np.sin(t)[:, None] + self.J * coef @ self.modes.T
+
+
+def _time_blocks(t, n):
+    """Split ``t`` so that one (times x n x n) block stays within BLOCK_BYTES."""
+    step = max(1, int(BLOCK_BYTES // (8 * 6 * n * n)))
+    return [t[i:i + step] for i in range(0, max(t.size, 1), step)] if t.size else [t]
+
+
+def _row_blocks(n):
+    step = max(1, int(BLOCK_BYTES // (8 * 6 * n * n)))
+    return [slice(i, min(i + step, n)) for i in range(0, n, step)]
 
 
 class CycleProblem:
@@ -168,36 +191,50 @@ class CycleProblem:
         self.level = -math.cos(flat.t0)
         self.coupling = coupling
 
-    def residual(self, tc):
-        """F(tc) and H(lambda_p, tc_j - tc_k) of shape (j, k, p), reused by the Jacobian."""
-        tau = np.mod(tc[:, None] - tc[None, :], self.T)                     # (j, k)
-        Hjk = _H(self.lam[None, None, :], tau[:, :, None], self.T)          # (j, k, p)
-        R = np.einsum("jp,jkp,pk->jk", self.V, Hjk, self.Vinv)
-        F = -np.cos(tc) + self.J * np.sum(R, axis=1) - self.level
-        return F, Hjk, None
+    def _R(self, tc):
+        """R_jk = sum_p V_jp H(lambda_p, tc_j - tc_k) Vinv_pk and R' (H -> lambda H - 1/T,
+        i.e. R' = A R - I/T), in row blocks so that the (rows, k, p) tensors stay within
+        BLOCK_BYTES."""
+        n = tc.size
+        R, Rp = np.empty((n, n)), np.empty((n, n))
+        for rows in _row_blocks(n):
+            tau = np.mod(tc[rows, None] - tc[None, :], self.T)                  # (j, k)
+            Hjk = _H(self.lam[None, None, :], tau[:, :, None], self.T)          # (j, k, p)
+            R[rows] = np.einsum("jp,jkp,pk->jk", self.V[rows], Hjk, self.Vinv)
+            Hjk *= self.lam[None, None, :]
+            Hjk -= 1.0 / self.T
+            Rp[rows] = np.einsum("jp,jkp,pk->jk", self.V[rows], Hjk, self.Vinv)
+        return R, Rp
 
-    def jacobian_operator(self, tc, Hjk, _):
+    def residual(self, tc):
+        """F(tc) and R'(tc_j - tc_k), reused by the Jacobian."""
+        R, Rp = self._R(tc)
+        F = -np.cos(tc) + self.J * np.sum(R, axis=1) - self.level
+        return F, Rp, None
+
+    def jacobian_operator(self, tc, Rp, _phase):
         from scipy.sparse.linalg import aslinearoperator
 
         n = tc.size
-        # R'(tau) = V diag(lam H - 1/T) V^{-1}  (= A R - I/T)
-        dH = self.lam[None, None, :] * Hjk - 1.0 / self.T
-        Rp = np.einsum("jp,jkp,pk->jk", self.V, dH, self.Vinv)
         Jm = -self.J * Rp
         Jm[np.arange(n), np.arange(n)] += np.sin(tc) + self.J * np.sum(Rp, axis=1)
         slope = np.diag(Jm).copy()
         return aslinearoperator(Jm), slope
 
 
-def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None, *, r_core=1.0,
-                        tol=1e-12, max_iter=50, continuation=True):
+def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, tc_initial=None, *,
+                        r_core=defaults.R_CORE, tol=1e-12, max_iter=defaults.MAX_ITER, continuation=True,
+                        callback=None):
     r"""Exact single-contact periodic orbit of an FDA lattice (see the module docstring).
 
     Parameters
     ----------
     lattice : tps_solver.fda.Lattice
-        Neumann ends (planar) or axisymmetric.
+        Neumann ends (planar) or axisymmetric.  Single-contact cycles exist only
+        for spacings above about 13.6 (:data:`tps_solver.defaults.FOLD_SPACING_LATTICE`),
+        e.g. ``Lattice.planar(**tps_solver.defaults.COARSE_LATTICE)``.
     Gamma, M, e, t0 : as in :func:`~tps_solver.solve_kink`.
+        Default: ``e = 0.45`` (neither ``e`` nor ``t0`` given).
     tc_initial : None, array_like (n_nodes,) or callable
         Default as in :func:`~tps_solver.tps.solve_lattice` (kink step or oscillon core).
     r_core : float
@@ -205,17 +242,27 @@ def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None
     max_iter : int
     continuation : bool
         Follow the branch from the decoupled limit in the coupling.
+    callback : callable, optional
+        ``callback(iteration, tc, residual)`` after each Newton step (each accepted
+        continuation point).  A ``KeyboardInterrupt`` returns ``status=5`` with the
+        last accepted iterate.
 
     Returns
     -------
     LatticeCycle
 
+    Notes
+    -----
+    The work is O(n_nodes^3) per Newton step; the cost is estimated first and a lattice
+    out of reach raises ``ValueError`` (:mod:`tps_solver.budget`).  The small dense
+    kernels run on one BLAS thread (:func:`tps_solver.budget.blas_threads`).
+
     Examples
     --------
     >>> from tps_solver.fda import Lattice
-    >>> cyc = solve_lattice_cycle(Lattice.planar(n_nodes=8, length=140.0), e=0.45, t0=None)
-    >>> cyc.converged
-    True
+    >>> cyc = solve_lattice_cycle(Lattice.planar(n_nodes=8, length=140.0))
+    >>> cyc.converged, round(cyc.e, 2)
+    (True, 0.45)
     """
     if not isinstance(lattice, Lattice):
         raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
@@ -223,27 +270,43 @@ def solve_lattice_cycle(lattice, Gamma=2.5, M=2, e=None, t0=0.0, tc_initial=None
         raise ValueError(f"lattice.boundary must be 'neumann' for the exact cycle, got {lattice.boundary!r}")
     Gamma = check_positive(Gamma, "Gamma")
     M = check_int(M, "M", minimum=1)
-    flat = FlatLayer(Gamma, M, e=e, t0=t0)
+    if e is not None:
+        e = check_restitution(e, "e")
+    flat = FlatLayer(Gamma, M, **defaults.model(e, t0))
     tol = check_positive(tol, "tol")
     max_iter = check_int(max_iter, "max_iter", minimum=0)
     r_core = check_real(r_core, "r_core")
+    if callback is not None and not callable(callback):
+        raise ValueError(f"callback must be callable or None, got {type(callback).__name__}")
+    check_cost("solve_lattice_cycle", "lattice.n_nodes", lattice.n_nodes, *cycle_cost(lattice.n_nodes),
+               hint="the work is O(n_nodes^3) per Newton step; single-contact cycles need spacing "
+                    f">= {defaults.FOLD_SPACING_LATTICE:g} anyway")
     x = np.asarray(lattice.nodes, dtype=float)
     tc = lattice_initial_tc(lattice, flat, tc_initial, r_core)
     start = time.perf_counter()
     make = lambda nu: CycleProblem(lattice, flat, nu)
     nu_start = (lattice.spacing / decoupled_spacing(M)) ** 2
     path = []
-    if continuation and nu_start < 1.0:
-        tc, _, status, message, nit, history, path, problem = run_continuation(
-            make, tc.astype(float), tol, max_iter, nu_start)
-    else:
-        problem = make(1.0)
-        tc, _, status, message, nit, history = newton(problem, tc.astype(float), tol, max_iter)
+    with blas_threads(1, enabled=small_dense(lattice.n_nodes)):
+        if continuation and nu_start < 1.0:
+            tc, _, status, message, nit, history, path, problem = run_continuation(
+                make, tc.astype(float), tol, max_iter, nu_start, callback)
+        else:
+            problem = make(1.0)
+            tc, _, status, message, nit, history = newton(problem, tc.astype(float), tol, max_iter,
+                                                          callback)
     tc = np.mod(tc, flat.period)
+    if status != 0:
+        message = message.rstrip()
+        message += "" if message.endswith(".") else "."
+        if problem.coupling < 1.0:
+            message += (f" The fields belong to the lattice operator scaled by coupling = "
+                        f"{problem.coupling:.4g} (nodes unchanged).")
+        message += next_steps(status, flat, lattice.geometry, float(x[-1]), x.size, lattice)
     cyc = LatticeCycle(
         converged=status == 0, success=status == 0, status=status, message=message, nit=nit,
         residual=history[-1], residual_history=np.asarray(history), tc=tc, nodes=x.copy(),
-        geometry=lattice.geometry,
+        nodes_requested=x.copy(), geometry=lattice.geometry,
         coupling=problem.coupling, lattice=lattice, flat=flat, Gamma=Gamma, e=flat.e, M=M,
         t0=flat.t0, period=flat.period, J=problem.J, time=time.perf_counter() - start,
         continuation_path=np.asarray(path, dtype=float).reshape(-1, 3))

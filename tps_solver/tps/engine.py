@@ -27,62 +27,78 @@ from scipy.sparse.linalg import LinearOperator, gmres
 
 from ..orbit import converged_message
 
-__all__ = ["newton", "continuation", "fixed_point", "CORRECTOR_ITER", "SCHEMES"]
+__all__ = ["newton", "continuation", "fixed_point", "interrupted_message", "CORRECTOR_ITER", "SCHEMES"]
 
 SCHEMES = ("newton", "picard", "paper")
 CORRECTOR_ITER = 12      # Newton corrector steps per continuation point (quadratic: ~4 suffice)
 
 
+def interrupted_message(where):
+    """The one wording of status 5 (interrupted; the last accepted iterate is kept)."""
+    return (f"interrupted {where} (KeyboardInterrupt); the fields are the last accepted iterate "
+            "(pass tc_initial=sol.tc to resume)")
+
+
 def newton(problem, tc, tol, max_iter, callback=None):
-    """Newton-GMRES with backtracking on max|F|."""
+    """Newton-GMRES with backtracking on max|F|.
+
+    A ``KeyboardInterrupt`` returns status 5 with the last accepted iterate (and the
+    ``w`` that belongs to it).
+    """
     F, w, phase = problem.residual(tc)
     history = [float(np.max(np.abs(F)))]
     status, message = 1, f"iteration limit ({max_iter}) reached"
     nit = 0
     n = tc.size
-    for nit in range(1, max_iter + 1):
-        if history[-1] <= tol:
-            nit -= 1
-            status, message = 0, converged_message(history[-1], tol)
-            break
-        J, slope = problem.jacobian_operator(tc, w, phase)
-        # Jacobi preconditioner: the local part of the Jacobian
-        diag = slope.copy()
-        big = np.maximum(np.abs(diag), 1e-3)
-        precond = LinearOperator((n, n), matvec=lambda v: np.asarray(v).ravel() / big, dtype=float)
-        rtol = min(1e-2, 0.1 * history[-1])
-        dx, info = gmres(J, -F, rtol=max(rtol, 1e-13), atol=0.0, restart=min(n, 50),
-                         maxiter=4, M=precond)
-        if not np.all(np.isfinite(dx)):
-            status, message = 2, "GMRES returned a non-finite step"
-            break
-        # backtracking line search on max|F|
-        lam, accepted = 1.0, False
-        step_cap = problem.T / 4.0
-        scale = np.max(np.abs(dx))
-        if scale > step_cap:
-            dx *= step_cap / scale
-        while lam >= 1.0 / 64:
-            trial = tc + lam * dx
-            F_t, w_t, phase_t = problem.residual(trial)
-            r_t = float(np.max(np.abs(F_t)))
-            if r_t < (1.0 - 1e-4 * lam) * history[-1] or r_t <= tol:
-                accepted = True
+    done = 0                       # Newton steps accepted
+    try:
+        for nit in range(1, max_iter + 1):
+            if history[-1] <= tol:
+                nit -= 1
+                status, message = 0, converged_message(history[-1], tol)
                 break
-            lam *= 0.5
-        if not accepted:
-            status = 2
-            message = (f"Newton stagnated at iteration {nit}: no decrease of max|F| = "
-                       f"{history[-1]:.3e} along the GMRES direction (GMRES info {info})")
-            nit -= 1
-            break
-        tc, F, w, phase = trial, F_t, w_t, phase_t
-        history.append(r_t)
-        if callback is not None:
-            callback(nit, tc, r_t)
-    else:
-        if history[-1] <= tol:
-            status, message = 0, converged_message(history[-1], tol)
+            J, slope = problem.jacobian_operator(tc, w, phase)
+            # Jacobi preconditioner: the local part of the Jacobian
+            diag = slope.copy()
+            big = np.maximum(np.abs(diag), 1e-3)
+            precond = LinearOperator((n, n), matvec=lambda v: np.asarray(v).ravel() / big, dtype=float)
+            rtol = min(1e-2, 0.1 * history[-1])
+            dx, info = gmres(J, -F, rtol=max(rtol, 1e-13), atol=0.0, restart=min(n, 50),
+                             maxiter=4, M=precond)
+            if not np.all(np.isfinite(dx)):
+                status, message = 2, "GMRES returned a non-finite step"
+                break
+            # backtracking line search on max|F|
+            lam, accepted = 1.0, False
+            step_cap = problem.T / 4.0
+            scale = np.max(np.abs(dx))
+            if scale > step_cap:
+                dx *= step_cap / scale
+            while lam >= 1.0 / 64:
+                trial = tc + lam * dx
+                F_t, w_t, phase_t = problem.residual(trial)
+                r_t = float(np.max(np.abs(F_t)))
+                if r_t < (1.0 - 1e-4 * lam) * history[-1] or r_t <= tol:
+                    accepted = True
+                    break
+                lam *= 0.5
+            if not accepted:
+                status = 2
+                message = (f"Newton stagnated at iteration {nit}: no decrease of max|F| = "
+                           f"{history[-1]:.3e} along the GMRES direction (GMRES info {info})")
+                nit -= 1
+                break
+            tc, F, w, phase = trial, F_t, w_t, phase_t
+            history.append(r_t)
+            done = nit
+            if callback is not None:
+                callback(nit, tc, r_t)
+        else:
+            if history[-1] <= tol:
+                status, message = 0, converged_message(history[-1], tol)
+    except KeyboardInterrupt:
+        del history[done + 1:]
+        return tc, w, 5, interrupted_message(f"in Newton step {done + 1}"), done, history
     return tc, w, status, message, nit, history
 
 
@@ -94,6 +110,9 @@ def continuation(make_problem, tc, tol, max_iter, nu_start, callback=None, min_s
     with a secant predictor and Newton corrector.  A step that fails is
     halved; when the step falls below ``min_step`` the branch is declared to
     end (a fold: no solution on this branch beyond the last coupling reached).
+    ``callback(k, tc, residual)`` is called after the k-th accepted point.  A
+    ``KeyboardInterrupt`` returns status 5 with the last accepted point (at its
+    coupling, which ``problem.coupling`` reports).
 
     Returns (tc, w, status, message, nit, history, path, problem), where
     ``path`` lists (coupling, Newton iterations, residual) of accepted points.
@@ -103,43 +122,51 @@ def continuation(make_problem, tc, tol, max_iter, nu_start, callback=None, min_s
     tc, w, status, message, nit, history = newton(problem, tc, tol, max_iter)
     total = nit
     path = [(nu_start, nit, history[-1])]
+    if status == 5:
+        return tc, w, 5, message, total, history, path, problem
     if status != 0:
         return tc, w, status, f"continuation could not start at coupling {nu_start:.3g}: {message}", \
             total, history, path, problem
     step, s_prev, tc_prev = 0.5, None, None
-    while s < 0.0:
-        s_try = min(0.0, s + step)
-        if tc_prev is not None:
-            tc_pred = tc + (tc - tc_prev) * (s_try - s) / (s - s_prev)
-        else:
-            tc_pred = tc
-        trial_problem = make_problem(math.exp(s_try))
-        out = newton(trial_problem, tc_pred, tol, min(max_iter, CORRECTOR_ITER))
-        total += out[4]
-        if out[2] == 0:
-            s_prev, tc_prev = s, tc
-            s = s_try
-            tc, w, _, _, nit, history = out
-            problem = trial_problem
-            path.append((math.exp(s), nit, history[-1]))
-            if callback is not None:
-                callback(len(path), tc, history[-1])
-            step = min(2.0 * step, 1.0)
-        else:
-            step *= 0.5
-            if step < min_step:
-                nu = math.exp(s)
-                return tc, w, 4, (
-                    f"continuation from the decoupled limit stopped at coupling nu_c = {nu:.6g} < 1 "
-                    f"(node spacing {1 / math.sqrt(nu):.4g} x the requested one): the branch of "
-                    f"single-contact solutions ends there (Newton fails for every smaller step; a fold "
-                    f"is the likely cause). The returned fields are the converged solution at that "
-                    f"coupling, on the correspondingly stretched nodes."), total, history, path, problem
+    try:
+        while s < 0.0:
+            s_try = min(0.0, s + step)
+            if tc_prev is not None:
+                tc_pred = tc + (tc - tc_prev) * (s_try - s) / (s - s_prev)
+            else:
+                tc_pred = tc
+            trial_problem = make_problem(math.exp(s_try))
+            out = newton(trial_problem, tc_pred, tol, min(max_iter, CORRECTOR_ITER))
+            total += out[4]
+            if out[2] == 5:
+                raise KeyboardInterrupt
+            if out[2] == 0:
+                s_prev, tc_prev = s, tc
+                s = s_try
+                tc, w, _, _, nit, history = out
+                problem = trial_problem
+                path.append((math.exp(s), nit, history[-1]))
+                if callback is not None:
+                    callback(len(path), tc, history[-1])
+                step = min(2.0 * step, 1.0)
+            else:
+                step *= 0.5
+                if step < min_step:
+                    nu = math.exp(s)
+                    return tc, w, 4, (
+                        f"continuation from the decoupled limit stopped at coupling nu_c = {nu:.6g} < 1 "
+                        f"(node spacing {1 / math.sqrt(nu):.4g} x the requested one): the branch of "
+                        f"single-contact solutions ends there (Newton fails for every smaller step; a fold "
+                        f"is the likely cause); the returned fields are the converged solution at that "
+                        f"coupling."), total, history, path, problem
+    except KeyboardInterrupt:
+        return tc, w, 5, interrupted_message(
+            f"during the continuation at coupling nu_c = {problem.coupling:.6g} < 1 ({len(path)} points)"), \
+            total, history, path, problem
     return tc, w, 0, converged_message(history[-1], tol, f"by continuation in the coupling ({len(path)} points)"), total, history, path, problem
 
 
-
-def fixed_point(problem, tc, tol, max_iter, scheme, paper_sign):
+def fixed_point(problem, tc, tol, max_iter, scheme, paper_sign, callback=None):
     """The plain fixed point ("picard") or the paper's incremental scheme (47) ("paper").
 
     "paper": with w^0 = w(tc^0) and tc^{-1} = tc^0, each sweep adds
@@ -147,36 +174,45 @@ def fixed_point(problem, tc, tol, max_iter, scheme, paper_sign):
     to the iterate and selects tc^k from it by the contact rule.  For sigma = +1 this gives
     w^k = w(tc^{k-1}) exactly, i.e. the scheme is the Picard iteration lagged by one sweep.
     Convergence is always judged on the consistent residual F(tc^k) (a fresh solve), so an
-    iterate that drifted away from w(tc) is never reported as converged.
+    iterate that drifted away from w(tc) is never reported as converged.  ``callback(k, tc,
+    residual)`` after each sweep; a ``KeyboardInterrupt`` returns status 5 with the last sweep.
     """
     F, w, _ = problem.residual(tc)
     history = [float(np.max(np.abs(F)))]
     status, message, nit = 1, f"iteration limit ({max_iter}) reached", 0
     tc_prev = tc.copy()
     w_iter = w
-    for nit in range(1, max_iter + 1):
-        if history[-1] <= tol:
-            nit -= 1
-            status, message = 0, converged_message(history[-1], tol)
-            break
-        if scheme == "paper":
-            w_iter = w_iter + problem.paper_increment(tc, tc_prev, paper_sign)
+    done = 0
+    try:
+        for nit in range(1, max_iter + 1):
+            if history[-1] <= tol:
+                nit -= 1
+                status, message = 0, converged_message(history[-1], tol)
+                break
+            if scheme == "paper":
+                w_iter = w_iter + problem.paper_increment(tc, tc_prev, paper_sign)
+            else:
+                w_iter = w
+            sel = problem.select_contact(w_iter, tc)
+            if not np.all(sel.ok):
+                status = 3
+                message = (f"contact-time selection failed at {int(np.sum(~sel.ok))} node(s) in iteration "
+                           f"{nit}: no jump-like up-crossing of (46)")
+                nit -= 1
+                break
+            F_new, w_new, _ = problem.residual(sel.tc)
+            tc_prev, tc, F, w = tc, sel.tc, F_new, w_new
+            history.append(float(np.max(np.abs(F))))
+            done = nit
+            if callback is not None:
+                callback(nit, tc, history[-1])
+            if not np.isfinite(history[-1]):
+                status, message = 2, "residual became non-finite"
+                break
         else:
-            w_iter = w
-        sel = problem.select_contact(w_iter, tc)
-        if not np.all(sel.ok):
-            status = 3
-            message = (f"contact-time selection failed at {int(np.sum(~sel.ok))} node(s) in iteration {nit}: "
-                       "no jump-like up-crossing of (46)")
-            nit -= 1
-            break
-        tc_prev, tc = tc, sel.tc
-        F, w, _ = problem.residual(tc)
-        history.append(float(np.max(np.abs(F))))
-        if not np.isfinite(history[-1]):
-            status, message = 2, "residual became non-finite"
-            break
-    else:
-        if history[-1] <= tol:
-            status, message = 0, converged_message(history[-1], tol)
+            if history[-1] <= tol:
+                status, message = 0, converged_message(history[-1], tol)
+    except KeyboardInterrupt:
+        del history[done + 1:]
+        return tc, w, 5, interrupted_message(f"in sweep {done + 1}"), done, history
     return tc, w, status, message, nit, history

@@ -60,7 +60,9 @@ import time
 
 import numpy as np
 
+from .. import defaults
 from .._checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from ..budget import check_cost, tps_cost
 from ..flat import FlatLayer
 from ..harmonics import centred, evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
 from ..lattice import Lattice
@@ -69,7 +71,7 @@ from .engine import SCHEMES, continuation as run_continuation, fixed_point, newt
 from .problems import ContinuumProblem, LatticeProblem, decoupled_spacing, node_positions
 from .result import PeriodicSolution
 
-__all__ = ["solve_kink", "solve_oscillon", "solve_lattice", "lattice_initial_tc"]
+__all__ = ["solve_kink", "solve_oscillon", "solve_lattice", "lattice_initial_tc", "next_steps"]
 
 
 def _wrap(tc, T):
@@ -77,21 +79,67 @@ def _wrap(tc, T):
 
 
 # ----------------------------------------------------------------- front ends
-def _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign):
+def _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign, callback=None):
     Gamma = check_positive(Gamma, "Gamma")
     M = check_int(M, "M", minimum=1)
-    if e is None and t0 is None:
-        raise ValueError("e or t0 must be given (e in [0, 1), or t0 with e from (19))")
     if e is not None:
         e = check_restitution(e, "e")
-    flat = FlatLayer(Gamma, M, e=e, t0=t0)
+    flat = FlatLayer(Gamma, M, **defaults.model(e, t0))
     N = check_int(n_harmonics, "n_harmonics", minimum=1)
     tol = check_positive(tol, "tol")
     max_iter = check_int(max_iter, "max_iter", minimum=0)
     scheme = check_choice(scheme, "scheme", SCHEMES)
     if paper_sign not in (1, -1):
         raise ValueError(f"paper_sign must be +1 or -1, got {paper_sign!r}")
+    if callback is not None and not callable(callback):
+        raise ValueError(f"callback must be callable or None, got {type(callback).__name__}")
     return flat, N, tol, max_iter, scheme
+
+
+def _check_cost(what, N, n_nodes):
+    """Refuse before allocating when the grid or the truncation is out of reach (docs: budget)."""
+    check_cost(what, "n_nodes", n_nodes, *tps_cost(1, n_nodes),
+               hint=f"the default grid has {defaults.N_NODES} nodes")
+    check_cost(what, "n_harmonics", N, *tps_cost(N, n_nodes),
+               hint=f"the default is {defaults.N_HARMONICS}; the cost grows like N^2 n_nodes")
+
+
+def _suggest_grid(geometry, size, n_nodes, lattice=None):
+    """A grid with spacing >= defaults.SPACING, as a phrase for a message."""
+    sp = defaults.SPACING
+    if lattice is not None:
+        n = defaults.COARSE_LATTICE["n_nodes"]
+        if lattice.geometry == "planar":
+            return (f"a lattice with spacing >= {sp:g}, e.g. Lattice.planar(n_nodes={n}, "
+                    f"length={defaults.COARSE_LATTICE['length']:g})")
+        return (f"a lattice with spacing >= {sp:g}, e.g. Lattice.axisymmetric(n_nodes={n}, "
+                f"r_max={defaults.R_MAX:g}, grid='uniform')")
+    name, offset = ("half_length", 0.5) if geometry == "planar" else ("r_max", 1.0)
+    k = int(math.floor(size / sp + offset))
+    if k >= 3:
+        return f"a grid with node spacing >= {sp:g}, e.g. n_nodes={k} for {name}={size:g}"
+    return f"a grid with node spacing >= {sp:g}, e.g. {name}={sp * (n_nodes - offset):g} for n_nodes={n_nodes}"
+
+
+def next_steps(status, flat, geometry, size, n_nodes, lattice=None):
+    """One sentence on what to do after a run that did not converge ('' for status 0 and 5)."""
+    grid = _suggest_grid(geometry, size, n_nodes, lattice)
+    fold = defaults.FOLD_SPACING_LATTICE if lattice is not None else defaults.FOLD_SPACING_TPS
+    what = "kinks" if geometry == "planar" else "oscillons"
+    mu = np.abs(flat.floquet_multipliers()) if flat.pattern == "bounce" else np.zeros(1)
+    if status in (0, 5):
+        return ""
+    if status in (1, 2, 3) and abs(float(np.max(mu)) - 1.0) < 1e-6:
+        return (f" What to try: the far-field flat layer is marginal (Floquet multiplier "
+                f"{float(np.max(mu)):.6g} at t0 = {flat.t0:.4g}: the fold of the flat orbit, where the "
+                f"paper's preset t0 = 0 sits), so no branch starts there; give an interior restitution "
+                f"such as e={defaults.E} (the default) instead.")
+    if status == 4:
+        return (f" What to try: single-contact {what} exist only for node spacing above about {fold:g} "
+                f"viscous lengths (README, 'Results'), so use {grid}, or integrate this grid with the FDA "
+                f"and a soft contact (tps.simulate(..., method='soft', cutoff=...)).")
+    return (f" What to try: a larger max_iter, continuation=True, or {grid} (single-contact {what} exist "
+            f"only for node spacing above about {fold:g}).")
 
 
 def _initial_tc(tc_initial, x, default):
@@ -110,25 +158,42 @@ def _grid(length, n_nodes, name_length):
 
 
 def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geometry,
-            min_shift, elapsed, path=None, tail_correction=True):
+            min_shift, elapsed, path=None, tail_correction=True, size=None):
     T, M = flat.period, flat.M
     tc = _wrap(tc, T)
     w_full = centred(w)
+    lattice = getattr(problem, "lattice", None)
     if isinstance(problem, LatticeProblem):
         x = problem.x                                # coupling < 1 is reported, nodes unchanged
     else:
         x = problem.x / math.sqrt(problem.coupling)  # the nodes of the problem actually solved
+    x_req = problem.x                                # the nodes the caller asked for
     if isinstance(problem, LatticeProblem):
-        nodes = x.copy()
+        nodes, nodes_req = x.copy(), x_req.copy()
     elif geometry == "planar":
         # mirror.  kink: w_n(-x) = (-1)^n w_n(x), tc(-x) = tc(x) + T/2;  even: w_n(-x) = w_n(x)
         kink = problem.symmetry == "kink"
         sign = (-1.0) ** mode_numbers(N) if kink else np.ones(2 * N + 1)
         nodes = np.concatenate([-x[::-1], x])
+        nodes_req = np.concatenate([-x_req[::-1], x_req])
         w_full = np.concatenate([(sign[:, None] * w_full)[:, ::-1], w_full], axis=1)
         tc = np.concatenate([_wrap(tc[::-1] + (T / 2 if kink else 0.0), T), tc])
     else:
-        nodes = x.copy()
+        nodes, nodes_req = x.copy(), x_req.copy()
+    if status != 0:
+        message = message.rstrip()
+        message += "" if message.endswith(".") else "."
+        if problem.coupling < 1.0 and lattice is None:
+            message += (f" The fields are on the stretched nodes sol.nodes (spacing "
+                        f"{float(np.min(np.diff(x))):.4g}, coupling sol.coupling = {problem.coupling:.4g}); "
+                        f"the grid you asked for is sol.nodes_requested (spacing "
+                        f"{float(np.min(np.diff(x_req))):.4g}).")
+        elif problem.coupling < 1.0:
+            message += (f" The fields belong to the lattice operator scaled by sol.coupling = "
+                        f"{problem.coupling:.4g} (nodes unchanged).")
+        if size is None:
+            size = float(x_req[-1])
+        message += next_steps(status, flat, geometry, size, x_req.size, lattice)
     # zeta_hat by (39)-(40): zeta_n = w_n/(i n alpha), zeta_0 = -sum_{n != 0} zeta_n e^{i n alpha tc}
     n = mode_numbers(N)
     nz = n != 0
@@ -145,8 +210,8 @@ def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geom
         nodes=nodes, tc=tc, w_hat=w_full, zeta_hat=zeta_hat, zeta_shift=np.zeros(nodes.size),
         Gamma=flat.Gamma, e=flat.e, t0=flat.t0, M=M, N=N, period=T, flat=flat,
         min_shift=False, scheme=scheme, time=elapsed, coupling=problem.coupling,
-        tail_correction=bool(tail_correction),
-        spacing=float(np.min(np.diff(x))), lattice=getattr(problem, "lattice", None),
+        tail_correction=bool(tail_correction), nodes_requested=nodes_req,
+        spacing=float(np.min(np.diff(x))), lattice=lattice,
         continuation_path=np.asarray(path if path is not None else [], dtype=float).reshape(-1, 3))
     if min_shift:
         # the paper's (64)-(65): shift zeta up where its minimum is negative -- a diagnostic, labelled
@@ -163,19 +228,21 @@ def _solve(geometry, Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial, 
            tol, max_iter, scheme, paper_sign, min_shift, callback, continuation, tail_correction,
            symmetry="kink"):
     flat, N, tol, max_iter, scheme = _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter,
-                                                  scheme, paper_sign)
+                                                  scheme, paper_sign, callback)
     if not isinstance(continuation, bool):
         raise ValueError(f"continuation must be True or False, got {continuation!r}")
+    _check_cost("solve_kink" if geometry == "planar" else "solve_oscillon", N,
+                2 * n_nodes if geometry == "planar" else n_nodes)
     h = length / (n_nodes - (0.5 if geometry == "planar" else 1.0))
     x = node_positions(geometry, h, n_nodes)
     tc = _initial_tc(tc_initial, x, default_tc(x, flat)).astype(float)
     make = lambda nu: ContinuumProblem(geometry, h, n_nodes, flat, N, coupling=nu, symmetry=symmetry)
     return _run(make, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback,
-                continuation, tail_correction, geometry)
+                continuation, tail_correction, geometry, size=length)
 
 
 def _run(make_problem, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_shift, callback,
-         continuation, tail_correction, geometry):
+         continuation, tail_correction, geometry, size=None):
     """Dispatch to continuation, Newton or a fixed-point scheme, and assemble the solution.
 
     ``make_problem(coupling)`` builds the discretised problem; under continuation the problem
@@ -193,10 +260,10 @@ def _run(make_problem, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_sh
         if scheme == "newton":
             out = newton(problem, tc, tol, max_iter, callback)
         else:
-            out = fixed_point(problem, tc, tol, max_iter, scheme, paper_sign)
+            out = fixed_point(problem, tc, tol, max_iter, scheme, paper_sign, callback)
     elapsed = time.perf_counter() - start
     return _finish(problem, flat, N, *out, scheme, geometry, min_shift, elapsed, path,
-                   bool(tail_correction))
+                   bool(tail_correction), size)
 
 
 def lattice_initial_tc(lattice, flat, tc_initial, r_core):
@@ -212,8 +279,9 @@ def lattice_initial_tc(lattice, flat, tc_initial, r_core):
     return np.where(x < r_core, flat.t0 + flat.period / 2, flat.t0)
 
 
-def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
-               half_length=None, n_nodes=200, tol=1e-10, max_iter=50, scheme="newton",
+def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
+               tc_initial=None, *, half_length=None, n_nodes=defaults.N_NODES, tol=defaults.TOL,
+               max_iter=defaults.MAX_ITER, scheme="newton",
                paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
                symmetry="kink", callback=None, length=None):
     r"""Time-periodic kink: two flat layers bouncing half a period apart.
@@ -229,23 +297,27 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
     M : int
         Subharmonic order (M = 2 is f/2).
     e, t0 : float or None
-        Restitution or far-field launch phase (one of them; (19) gives the
-        other).  Default: the paper preset ``t0 = 0``.  Pass ``t0=None,
-        e=0.45`` for the stable-interior preset.
+        Restitution or far-field launch phase: give one of them, (19) gives the
+        other (both only if they agree).  Default (neither): ``e = 0.45``, a flat
+        layer inside its stability window (:mod:`tps_solver.defaults`).  The
+        paper's preset ``t0 = 0`` (``**tps_solver.defaults.PAPER_PRESET``) sits on
+        the fold of the flat orbit, where no branch starts.
     n_harmonics : int
-        Truncation N of the Fourier series (38)-(39).
+        Truncation N of the Fourier series (38)-(39).  The cost is estimated
+        first; a call out of reach raises ``ValueError`` (:mod:`tps_solver.budget`).
     tc_initial : None, array_like of float (n_nodes,), or callable
         Initial contact times on the solved nodes ``x > 0``.  ``None``: the
         step guess ``tc = t0`` (with the mirrored side at ``t0 + T/2``).
         A callable receives the node coordinates.
     half_length : float, keyword-only
         Half-width L of the computational domain (x in [-L, L]); beyond it tc = t0.
-        Default 10.
+        Default 150 (with the default 8 nodes: spacing 20, above the spacing ~11
+        below which single-contact kinks do not exist; :mod:`tps_solver.defaults`).
     length : float, keyword-only
         The former name of ``half_length`` (kept so existing calls work; give one of the two).
         Note that ``Lattice.planar(length=...)`` is a *total* length.
     n_nodes : int, keyword-only
-        Nodes on the half-line (x_j = (j + 1/2) h).
+        Nodes on the half-line (x_j = (j + 1/2) h), default 8.
     tol : float
         Target for max_j |F_j| (contact condition (46)).
     max_iter : int
@@ -260,7 +332,8 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
         :math:`\nu_c \to 0`, where the initial step pattern is exact) to full
         coupling (used with scheme "newton"; ignored otherwise).  If the branch ends at a fold first,
         the result has ``converged=False``, ``status=4`` and holds the last
-        converged solution on stretched nodes (``coupling < 1``).
+        converged solution on stretched nodes ``nodes`` (``coupling < 1``); the grid
+        asked for is ``nodes_requested``.
     tail_correction : bool
         Evaluate each node's own jump (size T/Gamma at tc) in closed form in
         ``velocity``/``height`` and in (40) (see :mod:`tps_solver.harmonics`).
@@ -268,23 +341,34 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
         ``"kink"``: w(t + T/2, -x) = w(t, x) (the two far fields half a period
         apart); ``"even"``: w(t, -x) = w(t, x) (e.g. a flat layer or a stripe).
     callback : callable, optional
-        ``callback(iteration, tc, residual)`` after each Newton step.
+        ``callback(iteration, tc, residual)`` after each Newton step (each
+        accepted point under continuation; each sweep of a fixed-point scheme).
+        A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate.
 
     Returns
     -------
     PeriodicSolution
+        ``converged``, ``status`` (:data:`tps_solver.orbit.STATUS`), a ``message``
+        that ends with what to try when it did not converge, ``nodes`` (the nodes
+        solved) and ``nodes_requested`` (the grid asked for; they differ only when a
+        continuation stopped at ``coupling < 1``).  ``checks.all_pass`` is False
+        unless the run converged.
 
     Examples
     --------
-    >>> sol = solve_kink(Gamma=2.5, e=0.45, t0=None, n_harmonics=8, n_nodes=40, half_length=5.0)
-    >>> sol.nodes.shape, sol.w_hat.shape
-    ((80,), (17, 80))
+    >>> sol = solve_kink()                        # the defaults: converged, checked
+    >>> sol.converged, sol.checks.all_pass, sol.nodes.shape
+    (True, True, (16,))
+    >>> fine = solve_kink(n_harmonics=8, n_nodes=40, half_length=5.0)
+    >>> fine.status, fine.nodes_requested.shape, fine.checks.all_pass
+    (4, (80,), False)
     """
     if half_length is not None and length is not None:
         raise ValueError(f"give one of half_length and length (its former name), got half_length="
                          f"{half_length!r} and length={length!r}")
     name = "length" if length is not None else "half_length"
-    half_length = length if length is not None else (10.0 if half_length is None else half_length)
+    half_length = length if length is not None else (defaults.HALF_LENGTH if half_length is None
+                                                     else half_length)
     half_length, n_nodes = _grid(half_length, n_nodes, name)
     if symmetry == "kink" and check_int(M, "M", minimum=1) % 2:
         raise ValueError(f"M must be even for a kink (got M = {M}): the half-period shift t0 + T/2 "
@@ -295,8 +379,9 @@ def solve_kink(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, 
                   check_choice(symmetry, "symmetry", ("kink", "even")))
 
 
-def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
-                   r_max=10.0, n_nodes=200, r_core=1.0, tol=1e-10, max_iter=50,
+def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
+                   tc_initial=None, *, r_max=defaults.R_MAX, n_nodes=defaults.N_NODES,
+                   r_core=defaults.R_CORE, tol=defaults.TOL, max_iter=defaults.MAX_ITER,
                    scheme="newton", paper_sign=1, min_shift=False, continuation=True,
                    tail_correction=True, callback=None):
     r"""Time-periodic axisymmetric oscillon in a flat layer of phase t0.
@@ -309,21 +394,23 @@ def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=No
         ``None``: the step guess ``tc = t0 + T/2`` for ``r < r_core`` and
         ``t0`` outside.
     r_max : float, keyword-only
-        Radius of the computational domain; beyond it tc = t0.
+        Radius of the computational domain; beyond it tc = t0.  Default 140
+        (with the default 8 nodes: spacing 20; :mod:`tps_solver.defaults`).
     n_nodes : int, keyword-only
-        Nodes ``r_j = j h``, ``h = r_max/(n_nodes - 1)``.
+        Nodes ``r_j = j h``, ``h = r_max/(n_nodes - 1)``, default 8.
     r_core : float, keyword-only
         Core radius of the default initial guess.
 
     Returns
     -------
     PeriodicSolution
+        As in :func:`solve_kink`.
 
     Examples
     --------
-    >>> sol = solve_oscillon(Gamma=2.5, e=0.45, t0=None, n_harmonics=8, n_nodes=40, r_max=5.0)
-    >>> float(sol.nodes[0]), sol.w_hat.shape
-    (0.0, (17, 40))
+    >>> sol = solve_oscillon()                    # the defaults: converged, checked
+    >>> sol.converged, sol.checks.all_pass, float(sol.nodes[0]), sol.w_hat.shape
+    (True, True, 0.0, (61, 8))
     """
     r_max, n_nodes = _grid(r_max, n_nodes, "r_max")
     r_core = check_real(r_core, "r_core")
@@ -337,8 +424,9 @@ def solve_oscillon(Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=No
                   scheme, paper_sign, min_shift, callback, continuation, tail_correction)
 
 
-def solve_lattice(lattice, Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_initial=None, *,
-                  r_core=1.0, tol=1e-10, max_iter=50, scheme="newton", paper_sign=1,
+def solve_lattice(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None,
+                  n_harmonics=defaults.N_HARMONICS, tc_initial=None, *, r_core=defaults.R_CORE,
+                  tol=defaults.TOL, max_iter=defaults.MAX_ITER, scheme="newton", paper_sign=1,
                   min_shift=False, continuation=True, tail_correction=True, callback=None):
     r"""The TPS on an FDA lattice: time-periodic orbits of the FDA's own discrete model.
 
@@ -382,7 +470,8 @@ def solve_lattice(lattice, Gamma=2.5, M=2, e=None, t0=0.0, n_harmonics=30, tc_in
     if not isinstance(lattice, Lattice):
         raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
     flat, N, tol, max_iter, scheme = _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter,
-                                                  scheme, paper_sign)
+                                                  scheme, paper_sign, callback)
+    _check_cost("solve_lattice", N, lattice.n_nodes)
     r_core = check_real(r_core, "r_core")
     tc = lattice_initial_tc(lattice, flat, tc_initial, r_core)
     return _run(lambda nu: LatticeProblem(lattice, flat, N, coupling=nu), float(lattice.spacing),
