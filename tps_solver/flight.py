@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-__all__ = ["phi1", "phi2", "taylor_tail", "flight_velocity", "flight_height", "flight_map",
+__all__ = ["phi1", "phi2", "phi2_expm1", "taylor_tail", "flight_velocity", "flight_height", "flight_map",
            "expm_companion"]
 
 
@@ -32,13 +32,11 @@ def phi1(z):
     return np.divide(np.expm1(z), z, out=np.ones_like(z), where=z != 0.0)
 
 
-_PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])[::-1]
+_PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
 
 
 def phi2(z):
     r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2`, with :math:`\varphi_2(0) = 1/2` (vectorised, stable).
-
-    A 10-term Taylor series is used for :math:`|z| < 0.1` (truncation below 1e-17).
 
     Examples
     --------
@@ -46,8 +44,38 @@ def phi2(z):
     0.5
     """
     z = np.asarray(z, dtype=float)
-    series = np.array(np.polyval(_PHI2_SERIES, z), dtype=float)
-    return np.divide(np.expm1(z) - z, z * z, out=series, where=np.abs(z) >= 0.1)
+    return phi2_expm1(z, np.expm1(z))
+
+
+def phi2_expm1(z, em1):
+    r""":math:`\varphi_2(z)` given ``em1`` :math:`= e^z - 1` (saves the exponential when it is at hand).
+
+    The Taylor series is used for :math:`|z| < 0.1`, with as many of its first 10 terms as the
+    largest such :math:`|z|` needs for a truncation below 1e-17.
+
+    Examples
+    --------
+    >>> z = np.array([0.0, 1e-3, 1.0])
+    >>> bool(np.allclose(phi2_expm1(z, np.expm1(z)), [0.5, (np.expm1(1e-3) - 1e-3) / 1e-6, np.e - 2]))
+    True
+    """
+    z = np.asarray(z, dtype=float)
+    em1 = np.asarray(em1, dtype=float)
+    scalar = z.ndim == 0
+    z, em1 = np.atleast_1d(z), np.atleast_1d(em1)
+    small = np.abs(z) < 0.1
+    out = np.divide(em1 - z, z * z, out=np.empty_like(z), where=~small)
+    if small.any():
+        zs = z[small]
+        zmax = float(np.max(np.abs(zs)))
+        k = 1
+        while k < 10 and zmax ** k * _PHI2_SERIES[k] > 1e-17:
+            k += 1
+        acc = np.full_like(zs, _PHI2_SERIES[k - 1])
+        for c in (_PHI2_SERIES[k - 2::-1] if k >= 2 else ()):
+            acc = acc * zs + c
+        out[small] = acc
+    return out[0] if scalar else out
 
 
 def taylor_tail(z, order):

@@ -59,6 +59,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from ..flight import phi2_expm1
 from .base import Integrator, Step
 from .events import event_sets
 from .exact import Modes
@@ -196,7 +197,7 @@ class _Segment:
                       (-tau, zq))
         else:
             M[:nf, 0] = expo * self.a - self.v * em1 - self.q * p1
-            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * _phi2(z, em1))
+            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * phi2_expm1(z, em1))
             M[nf:] = ((c * st - sn * vers, c * vers + sn * st), (-sn * st - c * vers, -sn * vers + c * st),
                       (0.0, 0.0))
         self._memo = (tau, M, expo)
@@ -602,27 +603,3 @@ def _safe_step(f, fp, A):
     f2 = 2.0 * np.maximum(f, 0.0)
     root = np.sqrt(fp * fp + A * f2)
     return np.where(fp >= 0.0, (fp + root) / A, f2 / (root + np.abs(fp) + 1e-300))
-
-
-_PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
-
-
-def _phi2(z, em1):
-    r""":math:`\varphi_2(z) = (e^z - 1 - z)/z^2` given ``em1`` :math:`= e^z - 1`; :math:`\varphi_2(0) = 1/2`.
-
-    The Taylor series is used for :math:`|z| < 0.1`, with as many of its first 10 terms as the
-    largest such :math:`|z|` needs for a truncation below 1e-17.
-    """
-    small = np.abs(z) < 0.1
-    out = np.divide(em1 - z, z * z, out=np.empty_like(z), where=~small)
-    if small.any():
-        zs = z[small]
-        zmax = float(np.max(np.abs(zs)))
-        k = 1
-        while k < 10 and zmax ** k * _PHI2_SERIES[k] > 1e-17:
-            k += 1
-        acc = np.full_like(zs, _PHI2_SERIES[k - 1])
-        for c in _PHI2_SERIES[k - 2::-1] if k >= 2 else ():
-            acc = acc * zs + c
-        out[small] = acc
-    return out
