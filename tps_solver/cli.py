@@ -1,23 +1,31 @@
-"""The ``tps-solver`` console script.
+"""The ``tps-solver`` console script (also ``python -m tps_solver``).
 
 Subcommands are discovered from :mod:`tps_solver._commands`: every module there
 defines ``NAME`` (str), ``HELP`` (str), ``configure(parser)`` and
-``run(args) -> int``.  Adding a command therefore never edits this file.
+``run(args) -> int``, and optionally ``ALIASES`` (list of str) and ``FLAGS`` (a dict
+mapping the library's parameter names to the command's flags, used to name the flag
+in an error message).  Adding a command therefore never edits this file.
+
+Exit status: 0 success, 1 the computation did not converge or stopped, 2 bad input
+(a one-line ``tps-solver COMMAND: error: ...`` on stderr, naming the flag) or a file
+that cannot be written.
 
 Examples
 --------
 $ tps-solver flat --gamma 2.5 --e 0.45 --M 2
-$ tps-solver demo
+$ tps-solver --version
+$ python -m tps_solver demo
 """
 import argparse
 import importlib
 import os
 import pkgutil
+import re
 import sys
 
-from . import _commands
+from . import __version__, _commands
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "flag_error"]
 
 
 def _command_modules():
@@ -33,15 +41,57 @@ def build_parser():
     """Return the argument parser with every discovered subcommand."""
     parser = argparse.ArgumentParser(
         prog="tps-solver",
-        description="Kinks and oscillons of vibrated granular layers (Goddard & Didwania model).")
+        description="Kinks and oscillons of vibrated granular layers (Goddard & Didwania model). "
+                    "Units: lengths by the plate amplitude A (horizontal lengths in viscous lengths, "
+                    "nu = 1), time by 1/omega.")
+    parser.add_argument("--version", action="version", version=f"tps-solver {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for mod in _command_modules():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP,
                            aliases=getattr(mod, "ALIASES", []))
         mod.configure(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(_run=mod.run, _flags=_flag_table(p, getattr(mod, "FLAGS", {})))
     return parser
+
+
+def _flag_table(parser, extra):
+    """Library parameter name -> flag: every option's ``dest`` plus the command's ``FLAGS``."""
+    table = {}
+    for action in parser._actions:
+        longs = [o for o in action.option_strings if o.startswith("--")]
+        if longs and action.dest not in ("help",):
+            table[action.dest] = longs[0]
+    table.update(extra)
+    return table
+
+
+def flag_error(message, flags):
+    """Name the flag in a library error that starts with a parameter name.
+
+    ``"r_max must be > 0, got -1"`` becomes ``"r_max (--r-max) must be > 0, got -1"``
+    when ``flags`` maps ``r_max`` to ``--r-max``; a message that already starts with a
+    flag, or with no known parameter, is returned unchanged.
+
+    Examples
+    --------
+    >>> flag_error("n_nodes must be an integer >= 3, got 0", {"n_nodes": "--nodes"})
+    'n_nodes (--nodes) must be an integer >= 3, got 0'
+    >>> flag_error("e and t0 are inconsistent", {"e": "--e", "t0": "--t0"})
+    'e and t0 (--e, --t0) are inconsistent'
+    """
+    m = re.match(r"([A-Za-z_]\w*)(?: and ([A-Za-z_]\w*))?\b", message)
+    if not m:
+        return message
+    names = [n for n in m.groups() if n]
+    if not all(n in flags for n in names):
+        names = names[:1]
+        if names[0] not in flags:
+            return message
+        end = len(names[0])
+    else:
+        end = m.end()
+    return f"{message[:end]} ({', '.join(flags[n] for n in names)}){message[end:]}"
 
 
 def main(argv=None):
@@ -57,7 +107,12 @@ def main(argv=None):
     try:
         return int(args._run(args) or 0)
     except ValueError as exc:
-        print(f"tps-solver {args.command}: error: {exc}", file=sys.stderr)
+        text = " ".join(str(exc).split())
+        print(f"tps-solver {args.command}: error: {flag_error(text, args._flags)}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        print(f"tps-solver {args.command}: error: cannot write{where}: {exc.strerror or exc}", file=sys.stderr)
         return 2
 
 

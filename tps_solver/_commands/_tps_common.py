@@ -5,25 +5,47 @@ import os
 import numpy as np
 
 
-def configure(parser, geometry):
-    parser.add_argument("--gamma", type=float, default=2.5, help="plate acceleration Gamma (default 2.5)")
-    parser.add_argument("--e", type=float, default=None, help="restitution; default: the paper preset t0 = 0")
-    parser.add_argument("--t0", type=float, default=None, help="far-field launch phase (paper preset: 0)")
-    parser.add_argument("--M", type=int, default=2, help="subharmonic order (default 2)")
-    parser.add_argument("--N", type=int, default=30, help="number of harmonics (default 30)")
-    parser.add_argument("--nodes", type=int, default=120, help="nodes on the half-line / radius (default 120)")
+def flags(geometry):
+    """API parameter -> flag of the ``kink`` / ``oscillon`` commands, for error messages."""
     size = "--length" if geometry == "planar" else "--r-max"
-    parser.add_argument(size, dest="size", type=float, default=12.0,
-                        help="half-width (kink) or radius (oscillon) of the domain (default 12)")
+    return {"Gamma": "--gamma", "e": "--e", "t0": "--t0", "M": "--M", "n_harmonics": "--N",
+            "n_nodes": "--nodes", "length": size, "half_length": size, "r_max": size, "r_core": "--r-core",
+            "tol": "--tol", "max_iter": "--max-iter", "scheme": "--scheme"}
+
+
+def configure(parser, geometry):
+    from .. import defaults as d
+
+    parser.add_argument("--gamma", type=float, default=d.GAMMA, help=f"plate acceleration Gamma (default {d.GAMMA})")
+    parser.add_argument("--e", type=float, default=None,
+                        help=f"restitution (default {d.E}, a stable interior flat layer, unless --t0 is given)")
+    parser.add_argument("--t0", type=float, default=None,
+                        help="far-field launch phase instead of --e (the paper's preset 0 is at the fold)")
+    parser.add_argument("--M", type=int, default=d.M, help=f"subharmonic order (default {d.M})")
+    parser.add_argument("--N", type=int, default=d.N_HARMONICS, help=f"number of harmonics (default {d.N_HARMONICS})")
+    parser.add_argument("--nodes", type=int, default=d.N_NODES,
+                        help=f"nodes on the half-line / radius (default {d.N_NODES}, spacing {d.SPACING:g}: "
+                             "single-contact solutions need spacing above about 11)")
+    size = "--length" if geometry == "planar" else "--r-max"
+    default_size = d.HALF_LENGTH if geometry == "planar" else d.R_MAX
+    parser.add_argument(size, dest="size", type=float, default=default_size,
+                        help=f"half-width (kink) or radius (oscillon) of the domain, in viscous lengths "
+                             f"(default {default_size:g})")
     if geometry == "axisymmetric":
-        parser.add_argument("--r-core", type=float, default=1.0, help="core radius of the initial guess")
-    parser.add_argument("--tol", type=float, default=1e-10, help="tolerance on max|F| of (46)")
-    parser.add_argument("--max-iter", type=int, default=50)
-    parser.add_argument("--scheme", default="newton", choices=["newton", "picard", "paper"])
+        parser.add_argument("--r-core", type=float, default=d.R_CORE,
+                            help="core radius of the initial guess, in viscous lengths")
+    parser.add_argument("--tol", type=float, default=d.TOL, help="tolerance on max|F| of (46)")
+    parser.add_argument("--max-iter", type=int, default=d.MAX_ITER, help="Newton iteration limit")
+    parser.add_argument("--scheme", default="newton", choices=["newton", "picard", "paper"],
+                        help="iteration: 'newton' (Newton-GMRES with continuation, default), 'picard' or "
+                             "'paper' (the paper's fixed-point sweeps)")
     parser.add_argument("--no-continuation", action="store_true", help="plain Newton from the step guess")
     parser.add_argument("--min-shift", action="store_true", help="apply the paper's (64)-(65) (diagnostic)")
-    parser.add_argument("--save", metavar="NPZ", default=None, help="save the solution (.npz)")
-    parser.add_argument("--plot", metavar="DIR", default=None, help="write surface and polar figures to DIR")
+    parser.add_argument("--save", metavar="NPZ", default=None,
+                        help="save the solution (tps_solver.io format; '.npz' is appended if missing)")
+    parser.add_argument("--plot", metavar="DIR", default=None,
+                        help="write the figures (space-time maps of zeta and w - W, snapshots) to DIR "
+                             "(created if missing; its parent must exist)")
 
 
 def summary(sol):
@@ -66,9 +88,11 @@ def summary(sol):
 def run(args, geometry):
     from .. import tps
 
-    e, t0 = args.e, args.t0
-    if e is None and t0 is None:
-        t0 = 0.0
+    from ._output import figure_directory, result_path
+
+    npz = result_path(args.save) if args.save else None
+    plot_dir = figure_directory(args.plot) if args.plot else None
+    e, t0 = args.e, args.t0              # neither given: the solvers' default model (tps_solver.defaults)
     common = dict(Gamma=args.gamma, M=args.M, e=e, t0=t0, n_harmonics=args.N, n_nodes=args.nodes,
                   tol=args.tol, max_iter=args.max_iter, scheme=args.scheme,
                   continuation=not args.no_continuation, min_shift=args.min_shift)
@@ -77,13 +101,12 @@ def run(args, geometry):
     else:
         sol = tps.solve_oscillon(r_max=args.size, r_core=args.r_core, **common)
     print(summary(sol))
-    if args.save:
-        sol.save(args.save)
-        print(f"  saved to {args.save}")
-    if args.plot:
+    if npz:
+        print(f"  saved to {sol.save(npz)}")
+    if plot_dir:
         from ..plotting import plot_solution
 
-        os.makedirs(args.plot, exist_ok=True)
-        for path in plot_solution(sol, args.plot):
+        os.makedirs(plot_dir, exist_ok=True)
+        for path in plot_solution(sol, plot_dir):
             print(f"  figure {path}")
     return 0 if sol.converged else 1

@@ -3,16 +3,20 @@
 1. the bouncing flat layer (17)-(19): launch phase, W0, Floquet multipliers;
 2. the flat layer reproduced by the TPS (oscillon geometry, Newton from a
    perturbed contact time): errors against the closed form;
-3. a small oscillon and a small kink TPS run (continuation from the decoupled
-   limit), and an oscillon on a coarse grid (6 nodes at spacing 15, where the
-   single-contact branch reaches full coupling): convergence status and the
-   physical checks of the single-contact assumption;
-4. the FDA stability check of the flat layer (if :mod:`tps_solver.stability`
-   exists): uniform-mode multipliers against the exact ones, growth factor.
+3. the oscillon and the kink TPS on the library's defaults
+   (:mod:`tps_solver.defaults`: e = 0.45, 8 nodes at spacing 20, N = 30;
+   continuation from the decoupled limit): convergence status and the physical
+   checks of the single-contact assumption; then the oscillon on a fine grid
+   (20 nodes at spacing 0.21), where the single-contact branch ends at a fold
+   (status 4, expected: such solutions need spacing above about 11);
+4. the exact lattice cycle on the default coarse lattice and its FDA stability
+   check (a periodic orbit of the FDA to round-off);
+5. the FDA stability check of the flat layer: uniform-mode multipliers against
+   the exact ones, growth factor.
 
 A TPS run that does not converge is reported as such in the table; it does not
 make the demo fail.  The exit status is 1 only if the flat-layer reproduction
-(items 2 and 4) misses its acceptance bound, which would be a bug.
+(items 2 and 5) misses its acceptance bound, which would be a bug.
 """
 import importlib
 import math
@@ -21,6 +25,9 @@ import time
 import numpy as np
 
 NAME = "demo"
+#: API parameter -> flag, for error messages (tps_solver.cli.flag_error).
+FLAGS = {"Gamma": "--gamma", "e": "--e", "M": "--M", "n_harmonics": "--N", "n_nodes": "--nodes",
+         "r_max": "--size", "length": "--size", "half_length": "--size"}
 HELP = "Fast demo (< 1 min): flat layer, TPS vs flat layer, small oscillon and kink, FDA check; summary table."
 
 #: Acceptance bounds of the flat-layer reproduction (the flat orbit to round-off in every method).
@@ -30,12 +37,17 @@ MULTIPLIER_TOL = 1e-7
 
 
 def configure(parser):
-    parser.add_argument("--gamma", type=float, default=2.5, help="plate acceleration Gamma (default 2.5)")
-    parser.add_argument("--e", type=float, default=0.45, help="restitution (default 0.45, stable interior)")
-    parser.add_argument("--M", type=int, default=2, help="subharmonic order (default 2)")
-    parser.add_argument("--N", type=int, default=12, help="harmonics of the small TPS runs (default 12)")
-    parser.add_argument("--nodes", type=int, default=40, help="nodes of the small TPS runs (default 40)")
-    parser.add_argument("--size", type=float, default=8.0, help="r_max / half-length of the TPS runs (default 8)")
+    from .. import defaults as d
+
+    parser.add_argument("--gamma", type=float, default=d.GAMMA, help=f"plate acceleration Gamma (default {d.GAMMA})")
+    parser.add_argument("--e", type=float, default=d.E, help=f"restitution (default {d.E}, stable interior)")
+    parser.add_argument("--M", type=int, default=d.M, help=f"subharmonic order (default {d.M})")
+    parser.add_argument("--N", type=int, default=d.N_HARMONICS,
+                        help=f"harmonics of the TPS runs (default {d.N_HARMONICS})")
+    parser.add_argument("--nodes", type=int, default=d.N_NODES, help=f"nodes of the TPS runs (default {d.N_NODES})")
+    parser.add_argument("--size", type=float, default=None,
+                        help=f"r_max / half-length of the TPS runs (default {d.R_MAX:g} / {d.HALF_LENGTH:g}: "
+                             f"spacing {d.SPACING:g} with the default nodes)")
 
 
 def _module(name):
@@ -78,8 +90,8 @@ def _physics(sol):
             f"restitution residual {c.restitution_residual:.1e}")
 
 
-def summary_rows(Gamma=2.5, e=0.45, M=2, N=12, n_nodes=40, size=8.0):
-    """Run the demo and return the rows of its table.
+def summary_rows(Gamma=None, e=None, M=None, N=None, n_nodes=None, size=None):
+    """Run the demo and return the rows of its table (``None``: the value of :mod:`tps_solver.defaults`).
 
     Returns
     -------
@@ -89,9 +101,16 @@ def summary_rows(Gamma=2.5, e=0.45, M=2, N=12, n_nodes=40, size=8.0):
     flat_ok : bool
         Whether the flat-layer reproduction met its acceptance bounds.
     """
+    from .. import defaults as d
     from ..flat import FlatLayer
-    from ..tps import solve_kink, solve_oscillon
+    from ..lattice import Lattice
+    from ..tps import solve_kink, solve_lattice_cycle, solve_oscillon
 
+    Gamma = d.GAMMA if Gamma is None else Gamma
+    e = d.E if e is None else e
+    M = d.M if M is None else M
+    N = d.N_HARMONICS if N is None else N
+    n_nodes = d.N_NODES if n_nodes is None else n_nodes
     rows = []
     fl = FlatLayer(Gamma, M, e=e)
     mu = fl.floquet_multipliers()
@@ -104,26 +123,45 @@ def summary_rows(Gamma=2.5, e=0.45, M=2, N=12, n_nodes=40, size=8.0):
     rows.append(("TPS reproduces flat layer", f"max|tc - t0| = {tc_err:.1e}, max|w_n - W_n| = {w_err:.1e} "
                  f"({dt:.2f} s)", f"<= {TC_TOL:.0e}, <= {HARMONIC_TOL:.0e}", "ok" if flat_ok else "FAIL"))
 
-    coarse = 15.0 * 5          # 6 nodes at spacing 15: above the spacing where the branch ends
-    for label, func, kw, nodes in (
-            (f"oscillon TPS (N={N}, {n_nodes} nodes)", solve_oscillon, dict(r_max=size), n_nodes),
-            (f"kink TPS (N={N}, {n_nodes} nodes)", solve_kink, dict(length=size), n_nodes),
-            (f"oscillon TPS (N={N}, 6 nodes, spacing 15)", solve_oscillon, dict(r_max=coarse), 6)):
-        sol, dt = _timed(lambda: func(Gamma=Gamma, M=M, e=e, t0=None, n_harmonics=N, n_nodes=nodes, **kw))
+    r_max = d.R_MAX if size is None else size
+    half = d.HALF_LENGTH if size is None else size
+    for label, func, kw in (
+            (f"oscillon TPS (N={N}, {n_nodes} nodes, r_max {r_max:g})", solve_oscillon, dict(r_max=r_max)),
+            (f"kink TPS (N={N}, {n_nodes} half-line nodes, half-length {half:g})", solve_kink,
+             dict(half_length=half))):
+        sol, dt = _timed(lambda: func(Gamma=Gamma, M=M, e=e, n_harmonics=N, n_nodes=n_nodes, **kw))
         verdict = ("not converged" if not sol.converged
                    else ("ok" if sol.checks.all_pass else "checks fail"))
         rows.append((label,
                      f"converged {sol.converged} (status {sol.status}, {sol.nit} it, "
-                     f"max|F| {sol.residual:.1e}, coupling reached {sol.coupling:.3g}, {dt:.2f} s)",
+                     f"max|F| {sol.residual:.1e}, spacing {sol.spacing:.3g}, {dt:.2f} s)",
                      "converged, max|F| <= 1e-10", verdict))
         rows.append(("  physical checks", _physics(sol), "zeta >= 0, one contact",
                      ("ok" if sol.checks.all_pass else "FAIL") + ("" if sol.converged else " (partial)")))
         if not sol.converged:
             rows.append(("  message", sol.message, "", ""))
 
-    stability = _module("stability")
+    fine, dt = _timed(lambda: solve_oscillon(Gamma=Gamma, M=M, e=e, n_harmonics=8, n_nodes=20, r_max=4.0))
+    rows.append(("oscillon TPS, fine grid (N=8, 20 nodes, spacing 0.21)",
+                 f"status {fine.status}: branch ends at coupling {fine.coupling:.3g} (spacing "
+                 f"{fine.spacing:.3g} reached), {dt:.2f} s", "status 4: no single-contact solution "
+                 f"below spacing ~{d.FOLD_SPACING_TPS:g}", "expected" if fine.status == 4 else "unexpected"))
+
+    from ..limit_cycles import check_stability
+
+    lat = Lattice.planar(**d.COARSE_LATTICE)
+    cyc, dt = _timed(lambda: solve_lattice_cycle(lat, Gamma=Gamma, M=M, e=e))
+    if cyc.converged:
+        chk, dt2 = _timed(lambda: check_stability(cyc, periods=6))
+        rows.append(("exact lattice cycle + FDA check", f"defect {float(chk.defects.max()):.1e}, growth/period "
+                     f"{chk.growth_factor:.3g}, stable {chk.stable} ({dt + dt2:.2f} s, {lat.n_nodes} nodes, dx = "
+                     f"{lat.spacing:g})", "defect <= 1e-10", "ok" if float(chk.defects.max()) <= 1e-10 else "FAIL"))
+    else:
+        rows.append(("exact lattice cycle + FDA check", cyc.message, "converged", "not converged"))
+
+    stability = _module("limit_cycles")
     if stability is None:
-        rows.append(("FDA check of flat layer", "tps_solver.stability not available", "", "n/a"))
+        rows.append(("FDA check of flat layer", "tps_solver.limit_cycles not available", "", "n/a"))
     else:
         chk, dt = _timed(lambda: stability.check_stability(fl, periods=8, n_nodes=5))
         um = np.asarray(chk.uniform_multipliers, dtype=complex)
@@ -134,6 +172,8 @@ def summary_rows(Gamma=2.5, e=0.45, M=2, N=12, n_nodes=40, size=8.0):
         rows.append(("FDA check of flat layer", f"uniform-mode multipliers err {err:.1e}, growth/period "
                      f"{chk.growth_factor:.3g}, stable {chk.stable} ({dt:.2f} s, 5 nodes, dx = "
                      f"{chk.lattice.spacing:.3g})", f"mu err <= {MULTIPLIER_TOL:.0e}", "ok" if ok else "FAIL"))
+        if chk.grid_instability:
+            rows.append(("  note", chk.message.split(". Measured")[0], "", ""))
     return rows, flat_ok
 
 

@@ -2,6 +2,8 @@
 import math
 
 NAME = "flat"
+#: API parameter -> flag, for error messages.
+FLAGS = {"Gamma": "--gamma", "e": "--e", "t0": "--t0", "M": "--M", "branch": "--branch"}
 HELP = "Flat-layer (bouncing-ball) orbit: launch phase, W0, peak height, Floquet multipliers."
 
 
@@ -10,8 +12,11 @@ def configure(parser):
     parser.add_argument("--e", type=float, default=None, help="restitution in [0, 1) (default 0.45)")
     parser.add_argument("--t0", type=float, default=None, help="launch phase; fixes e by (19) (paper: 0)")
     parser.add_argument("--M", type=int, default=2, help="subharmonic order (default 2)")
-    parser.add_argument("--branch", default="stable", choices=["stable", "unstable"])
-    parser.add_argument("--plot", metavar="PNG", default=None, help="draw zeta(t) and W(t) over two periods")
+    parser.add_argument("--branch", default="stable", choices=["stable", "unstable"],
+                        help="which of the two period-M orbits of (19): 'stable' (t0 > 0, default) or "
+                             "'unstable' (t0 < 0)")
+    parser.add_argument("--plot", metavar="PNG", default=None,
+                        help="draw zeta(t) and W(t) over two periods; '.png' is appended to a name without extension")
 
 
 def describe(fl):
@@ -34,33 +39,36 @@ def describe(fl):
 
 
 def plot(fl, path):
-    """Draw zeta(t) and W(t) over two periods to ``path`` (Agg backend)."""
-    import matplotlib
+    """Draw zeta(t) and W(t) over two periods to ``path``; returns the Figure (closed)."""
     import matplotlib.pyplot as plt
     import numpy as np
 
     t = np.linspace(fl.t0, fl.t0 + 2 * fl.period, 2000)
-    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5), layout="constrained")
     ax[0].plot(t / math.pi, fl.height(t))
-    ax[0].set_ylabel(r"$\zeta(t)$")
+    ax[0].set_ylabel(r"height $\zeta$ (plate amplitudes)")
     ax[1].plot(t / math.pi, fl.velocity(t))
-    ax[1].set_ylabel(r"$W(t)$")
-    ax[1].set_xlabel(r"$t/\pi$")
-    ax[0].set_title(f"flat layer: $\\Gamma$={fl.Gamma:g}, e={fl.e:.4g}, M={fl.M}, {fl.branch} branch")
-    fig.tight_layout()
+    ax[1].axhline(0.0, color="0.6", lw=0.6)
+    ax[1].set_ylabel(r"velocity $W$ ($A\omega$)")
+    ax[1].set_xlabel(r"time $t\,\omega/\pi$ (time unit $1/\omega$)")
+    ax[0].set_title(f"flat layer (17)-(19): $\\Gamma$ = {fl.Gamma:g}, e = {fl.e:.4g}, M = {fl.M}, "
+                    f"$t_0$ = {fl.t0:.4g}, {fl.branch} branch", fontsize=10)
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return fig
 
 
 def run(args):
     from ..flat import FlatLayer
+    from ._output import figure_path
 
+    png = figure_path(args.plot) if args.plot else None
     e = args.e
     if e is None and args.t0 is None:
         e = 0.45
     fl = FlatLayer(args.gamma, args.M, e=e, t0=args.t0, branch=args.branch)
     print(describe(fl))
-    if args.plot:
-        plot(fl, args.plot)
-        print(f"  figure written to {args.plot}")
+    if png:
+        plot(fl, png)
+        print(f"  figure written to {png}")
     return 0

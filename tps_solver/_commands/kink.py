@@ -2,6 +2,8 @@
 from . import _tps_common
 
 NAME = "kink"
+#: API parameter -> flag, for error messages.
+FLAGS = _tps_common.flags("planar")
 HELP = "Time-periodic kink by the spectral TPS; prints convergence and the physical checks."
 
 

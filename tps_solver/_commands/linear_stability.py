@@ -17,7 +17,8 @@ def configure(parser):
     parser.add_argument("--n-modes", type=int, default=3, help="modes per family to print (default 3)")
     parser.add_argument("--nu", type=float, default=1.0, help="viscosity nu (default 1)")
     parser.add_argument("--plot", metavar="PNG", default=None,
-                        help="draw sigma h^2/nu against k h for both families")
+                        help="draw sigma h^2/nu against k h for both families; '.png' is appended to a name "
+                             "without extension")
 
 
 def describe(kh, n_modes, nu=1.0):
@@ -41,14 +42,16 @@ def describe(kh, n_modes, nu=1.0):
 
 def run(args):
     from .._checks import check_in_range, check_int, check_positive
+    from ._output import figure_path
 
     check_in_range(args.kh, "--kh", 2e-6, 2e3)
     check_int(args.n_modes, "--n-modes", minimum=1, maximum=1000)
     check_positive(args.nu, "--nu")
+    png = figure_path(args.plot) if args.plot else None
     print(describe(args.kh, args.n_modes, args.nu))
-    if args.plot:
+    if png:
         from ..plotting import plot_growth_rates
 
-        plot_growth_rates(args.plot, n_modes=args.n_modes, nu=args.nu)
-        print(f"wrote {args.plot}")
+        plot_growth_rates(png, n_modes=args.n_modes, nu=args.nu)
+        print(f"wrote {png}")
     return 0

@@ -2,6 +2,8 @@
 from . import _tps_common
 
 NAME = "oscillon"
+#: API parameter -> flag, for error messages.
+FLAGS = _tps_common.flags("axisymmetric")
 HELP = "Time-periodic axisymmetric oscillon by the spectral TPS; prints convergence and the physical checks."
 
 
