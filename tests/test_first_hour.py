@@ -293,3 +293,26 @@ def test_progress_display_without_tqdm(monkeypatch, caplog):
             bar.newton(3, None, 1.5e-4)
             bar.fraction(argparse.Namespace(fraction=1.0))
     assert "kink: step 3, max|F| = 1.500e-04" in caplog.text and "100 % done" in caplog.text
+
+
+# ------------------------------------------------- CLI and demo on their defaults
+@pytest.mark.parametrize("argv", [["oscillon"], ["kink"], ["oscillon", "--e", "0.45", "--N", "30"],
+                                  ["kink", "--e", "0.45", "--N", "30"]])
+def test_cli_defaults_converge(argv, capsys):
+    """The README's `tps-solver oscillon --e 0.45 --N 30` and `kink` exited 1 (status 4)."""
+    from tps_solver.cli import main
+
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "converged?            True (status 0)" in out and "all physical checks   True" in out
+
+
+def test_demo_defaults_are_converged_and_checked():
+    from tps_solver._commands import demo
+
+    rows, flat_ok = demo.summary_rows()
+    assert flat_ok
+    verdicts = {item.strip(): verdict for item, _, _, verdict in rows}
+    tps_rows = [item for item in verdicts if item.startswith(("oscillon TPS (", "kink TPS ("))]
+    assert len(tps_rows) == 2 and all(verdicts[item] == "ok" for item in tps_rows)
+    assert list(verdicts.values()).count("FAIL") == 0 and "not converged" not in verdicts.values()
