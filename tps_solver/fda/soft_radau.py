@@ -101,10 +101,10 @@ class RadauSoftIntegrator(Integrator):
             self._start(t, w, zeta, t_stop)
             solver = self._solver
         ta, ya = solver.t, solver.y.copy()
-        solver.step()
+        failure = solver.step()
         self.n_steps += 1
         if solver.status == "failed":
-            raise RuntimeError(f"Radau failed at t = {solver.t:.15g}: {solver.message}")
+            raise RuntimeError(f"Radau failed at t = {solver.t:.15g}: {failure}")
         tb, yb = solver.t, solver.y
         dense = solver.dense_output()
         events = []
