@@ -7,7 +7,7 @@ What is measured
   the single node, with its binomial standard error, period (forcing cycles),
   contact pattern and multipliers: point impacts, and the soft contact at
   cutoff 0.3 without (the model of ``simulate(..., method="soft")``) and with
-  the sticking rule of docs/design.md, hazard 10.
+  the sticking rule (docs/design.md, hazard 10).
 * :func:`cutoff_scan` -- the reference case with the soft contact at
   cutoffs 0.3 ... 0.03, with and without the sticking rule: the point-impact
   basins are recovered as the cut-off shrinks.
