@@ -89,6 +89,9 @@ class SweepInterrupted(KeyboardInterrupt):
 def param_range(start, stop, step, name="value"):
     """The grid ``start, start + step, ...`` up to ``stop`` (included to 1e-9 steps), as a list.
 
+    Values are rounded to 12 digits below the leading digit of ``step``, so
+    ``2.3 + 0.1`` gives ``2.4`` (and the store key of 2.4).
+
     Parameters
     ----------
     start, stop : float
@@ -118,7 +121,8 @@ def param_range(start, stop, step, name="value"):
     if stop < start:
         raise ValueError(f"{name}: stop must be >= start = {start}, got {stop} (an empty range)")
     n = int(math.floor((stop - start) / step + 1e-9)) + 1
-    return [float(round(start + k * step, 12)) for k in range(n)]
+    digits = max(0, 12 - math.floor(math.log10(step)))     # drop the round-off of k * step, keep 12 digits of step
+    return [float(round(start + k * step, digits)) for k in range(n)]
 
 
 def _check_value(value, where):
