@@ -76,18 +76,21 @@ def test_process_pool_bit_identical_and_resumable_after_interrupt(tmp_path):
         with pytest.raises(SweepInterrupted) as info:
             sweep(counting_task, params, executor=ex, store=store, callback=stop, progress=False)
         assert int(info.value.finished.sum()) == 3 == len(list(store.glob("*.pkl")))
-        (log / "gen").write_text("2")              # calls of the rerun are tagged 2 (stragglers of run 1 are not)
-        res = sweep(counting_task, params, executor=ex, store=store, progress=False)
+    # leaving the block waited for the calls already queued in the workers (they cannot be cancelled)
+    (log / "gen").write_text("2")                  # calls of the rerun are tagged 2
+    res = sweep(counting_task, params, store=store, max_workers=1, progress=False)    # the default pool
     assert res == [x * x for x in range(8)]
     stored_first = sorted(x for x in range(8) if info.value.finished[x])
     assert _calls(log, gen=2) == sorted(set(range(8)) - set(stored_first))
 
 
-def test_default_pool_and_thread_pool_match_serial():
+def test_thread_pool_matches_serial_and_the_callers_blas_pools_are_left_alone():
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    before = [d["num_threads"] for d in threadpoolctl.threadpool_info()]
     ref = _serial_reference()
-    _assert_identical(sweep(flat_task, GRID, max_workers=1, progress=False), ref)
     with ThreadPoolExecutor(max_workers=2) as ex:
         _assert_identical(sweep(flat_task, GRID, executor=ex, progress=False), ref)
+    assert [d["num_threads"] for d in threadpoolctl.threadpool_info()] == before
 
 
 def test_dask_local_cluster_is_bit_identical_to_serial():

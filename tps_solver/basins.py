@@ -21,7 +21,14 @@ Models (the rules of :func:`tps_solver.simulate` for a uniform state)
     :math:`\tau_c = \ell^2`, :math:`\omega_d = \pi/\tau_c`,
     :math:`\beta = -\ln e/\tau_c`, so every contact lasts exactly
     :math:`\tau_c` and returns :math:`w^+ = -e\,w^-`.  Needs :math:`e > 0`
-    (:math:`\beta` is singular at :math:`e = 0`, docs/design.md, hazard 11).
+    (:math:`\beta` is singular at :math:`e = 0`) (docs/design.md, hazard 11).
+    This is the model of ``simulate(..., method="soft")``, which has no
+    sticking rule: a ball micro-chatters through a sticking phase (each
+    contact lasts :math:`\tau_c`, speeds fall by :math:`e` per contact) and
+    leaves at the end of the contact in progress when :math:`g` turns
+    positive, so sticking does not reset it.  ``soft_sticking=True`` adds the
+    rule (docs/design.md, hazard 10): an entry at or below ``stick_velocity``
+    ends at rest, held while :math:`g \le 0`.
 
 Integrators
 -----------
@@ -576,8 +583,8 @@ def _check_model(Gamma, e, model, cutoff):
         if cutoff * cutoff >= _TWO_PI:
             raise ValueError(f"cutoff must give a contact time cutoff**2 < 2*pi, got {cutoff!r}")
         if e == 0.0:
-            raise ValueError("e must be in (0, 1) for model='soft' (the damping -ln(e)/tau_c is singular at "
-                             "e = 0, docs/design.md, hazard 11); use model='point' for e = 0")
+            raise ValueError("e must be in (0, 1) for model='soft': the damping -ln(e)/tau_c is singular at "
+                             "e = 0 (docs/design.md, hazard 11); use model='point' for e = 0")
     elif cutoff is not None:
         raise ValueError(f"cutoff is only used with model='soft', got cutoff={cutoff!r} with model='point'")
     return Gamma, e, model, cutoff
@@ -637,7 +644,7 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     soft_sticking : bool
         Soft model only, closed form only: a contact entered at a speed at or
         below ``stick_velocity`` ends at rest, held while :math:`g \le 0`
-        (the sticking rule proposed in docs/design.md, hazard 10).  The default
+        (the sticking rule proposed in (docs/design.md, hazard 10)).  The default
         ``False`` is the model of ``simulate(..., method="soft")``, which has no
         such rule: a ball then micro-chatters through every sticking phase and
         leaves it at a phase set by the chatter, so sticking does not reset it.

@@ -29,13 +29,18 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   results; the finished points are in the store.  An exception raised by the
   task cancels the points not yet started, waits for the running ones, stores
   every finished point and is re-raised with a note naming the failing point.
-* **Threads.**  Each task runs under ``threadpoolctl.threadpool_limits(threads)``
-  (default 1 when threadpoolctl is installed, ``pip install
-  tps-solver[threads]``): on few cores, multithreaded BLAS inside parallel
-  workers only oversubscribes, and a fixed thread count makes the results
-  bit-identical whatever the executor.
+* **Threads.**  With ``threads=n`` (default 1 when threadpoolctl is installed,
+  ``pip install tps-solver[threads]``) every worker *process* caps its
+  BLAS/OpenMP pools at ``n`` threads before running a task, and a serial sweep
+  runs under ``threadpoolctl.threadpool_limits(n)`` (restored afterwards).
+  On few cores multithreaded BLAS inside parallel workers only
+  oversubscribes, and one thread count everywhere keeps BLAS reductions, and
+  so the results, bit-identical whatever the executor.  Thread-based
+  executors (``ThreadPoolExecutor``, Dask with ``processes=False``) share the
+  caller's pools, which are left alone.
 """
 import concurrent.futures as cf
+import contextlib
 import hashlib
 import itertools
 import json
@@ -84,6 +89,9 @@ class SweepInterrupted(KeyboardInterrupt):
 def param_range(start, stop, step, name="value"):
     """The grid ``start, start + step, ...`` up to ``stop`` (included to 1e-9 steps), as a list.
 
+    Values are rounded to 12 digits below the leading digit of ``step``, so
+    ``2.3 + 0.1`` gives ``2.4`` (and the store key of 2.4).
+
     Parameters
     ----------
     start, stop : float
@@ -113,7 +121,8 @@ def param_range(start, stop, step, name="value"):
     if stop < start:
         raise ValueError(f"{name}: stop must be >= start = {start}, got {stop} (an empty range)")
     n = int(math.floor((stop - start) / step + 1e-9)) + 1
-    return [float(round(start + k * step, 12)) for k in range(n)]
+    digits = max(0, 12 - math.floor(math.log10(step)))     # drop the round-off of k * step, keep 12 digits of step
+    return [float(round(start + k * step, digits)) for k in range(n)]
 
 
 def _check_value(value, where):
@@ -308,13 +317,24 @@ def load_store(store):
 
 
 # ------------------------------------------------------------------- execution
-def _run(task, params, threads):
-    """Run one point (in a worker): ``task(**params)`` under a BLAS thread limit."""
+def _run(task, params, threads, caller_pid):
+    """Run one point: ``task(**params)``; in a worker process, first cap its BLAS threads.
+
+    The cap is set (not restored) only in processes other than the caller's,
+    so thread-based executors never change the caller's thread pools.
+    """
+    if threads is not None and os.getpid() != caller_pid:
+        from threadpoolctl import threadpool_limits
+        threadpool_limits(limits=threads)
+    return task(**params)
+
+
+def _limits(threads):
+    """Context capping this process's BLAS threads (serial runs), or a no-op."""
     if threads is None:
-        return task(**params)
+        return contextlib.nullcontext()
     from threadpoolctl import threadpool_limits
-    with threadpool_limits(limits=threads):
-        return task(**params)
+    return threadpool_limits(limits=threads)
 
 
 def _resolve_threads(threads):
@@ -506,7 +526,8 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
             for k in todo:
                 p = points[positions[k][0]]
                 try:
-                    value = _run(task, p, threads)
+                    with _limits(threads):
+                        value = task(**p)
                 except KeyboardInterrupt as exc:
                     raise interrupted(exc) from exc
                 except Exception as exc:
@@ -518,7 +539,8 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
                 except KeyboardInterrupt as exc:
                     raise interrupted(exc) from exc
             return results
-        futures = {ex.submit(_run, task, points[positions[k][0]], threads): k for k in todo}
+        pid = os.getpid()
+        futures = {ex.submit(_run, task, points[positions[k][0]], threads, pid): k for k in todo}
         pending = set(futures)
         try:
             while pending:
