@@ -7,7 +7,7 @@ from numpy.polynomial.legendre import leggauss
 
 import tps_solver as tps
 from tps_solver import tps_stick as ts
-from tps_solver.discrete_helmholtz import LatticeHelmholtz
+from tps_solver.helmholtz import LatticeHelmholtz
 
 GAMMAS = (3.9, 4.1, 4.4)
 

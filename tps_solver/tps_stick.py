@@ -75,7 +75,7 @@ from scipy.linalg import eigh, lu_factor, lu_solve
 from scipy.optimize import brentq
 
 from ._result import Bunch
-from ._validation import check_int, check_positive, check_real, check_restitution
+from ._checks import check_int, check_positive, check_real, check_restitution
 
 __all__ = ["StickSolution", "StickPattern", "flat_stick_orbit", "solve_stick_flat", "check_with_fda",
            "solve_stick_lattice", "pattern_from_fda", "kink_state"]
