@@ -21,13 +21,24 @@ first.
 BLAS threads
 ------------
 On few cores a multithreaded BLAS makes *small* dense kernels slower: thread
-start-up and, on a loaded machine, oversubscription cost more than the work
-(on the project's 2-core machine ``eigh`` of a 200 x 200 matrix took 23 ms with one
-thread and 61 ms with two; see :data:`SMALL_DENSE`).  :func:`blas_threads` limits the
-BLAS pool for a block of code through ``threadpoolctl`` (an optional dependency,
-imported lazily; without it the block runs unchanged).  The FDA driver and the
-exact lattice cycle run their small dense kernels under ``blas_threads(1)`` when
-the lattice has at most :data:`SMALL_DENSE` nodes.
+start-up and, on a loaded machine, oversubscription cost more than the work.
+Measured on the project's 2-core machine (OpenBLAS 0.3, load average about 10 from
+other jobs), one thread against two:
+
+==============================================  ============  ============
+kernel                                          1 thread      2 threads
+==============================================  ============  ============
+``scipy.linalg.eigh``, 200 x 200 (best of 21)   9.2 ms        26 ms
+``scipy.linalg.eigh``, 800 x 800 (best of 7)    519 ms        4362 ms
+FDA radial benchmark, 200 nodes (s/period,      0.018         0.036
+best of 5; ``validation.fda_benchmark``)
+==============================================  ============  ============
+
+:func:`blas_threads` limits the BLAS pool for a block of code through
+``threadpoolctl`` (an optional dependency, imported lazily; without it the block
+runs unchanged).  :func:`~tps_solver.simulate`, :func:`~tps_solver.check_stability`
+and :func:`~tps_solver.solve_lattice_cycle` run under ``blas_threads(1)`` when the
+lattice has at most :data:`SMALL_DENSE` nodes; nested blocks cost nothing.
 
 Progress
 --------
@@ -55,8 +66,9 @@ __all__ = ["check_cost", "memory_limit", "time_limit", "set_limits", "tps_cost",
 
 _LOG = logging.getLogger("tps_solver")
 
-#: Lattices up to this many nodes run their dense kernels with one BLAS thread (measured crossover).
-SMALL_DENSE = 400
+#: Lattices up to this many nodes run their dense kernels with one BLAS thread (one thread was
+#: faster at every size measured, up to 800; see the module docstring).
+SMALL_DENSE = 1000
 
 _LIMITS = {"memory": None, "time": 3600.0}
 _ACTIVE = []             # thread limits of the enclosing blas_threads blocks

@@ -93,7 +93,8 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     On lattices of at most :data:`tps_solver.budget.SMALL_DENSE` nodes the integration runs
     with one BLAS thread (:func:`tps_solver.budget.blas_threads`, through threadpoolctl when it
     is installed): the dense kernels are small and a second thread only costs (measured on a
-    2-core machine: ``eigh`` of 200 x 200, 23 ms on one thread against 61 ms on two).
+    2-core machine: the 200-node radial flat-layer benchmark, 0.018 s per period on one thread
+    against 0.036 s on two; see :mod:`tps_solver.budget`).
 
     Examples
     --------
