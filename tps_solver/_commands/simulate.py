@@ -104,7 +104,7 @@ def plot(lat, fl, t, Z, path, case, method="exact", cutoff=None):
     space = "x" if lat.geometry == "planar" else "r"
     ax.set_xlabel(f"${space}$ (viscous lengths)")
     ax.set_ylabel(r"$t\,\omega / 2\pi$ (forcing cycles)")
-    law = f"soft contact, cut-off {cutoff:g}" if method.startswith("soft") else f"method {method}"
+    law = f"method {method}" if cutoff is None else f"method {method}, soft-contact cut-off {cutoff:g}"
     ax.set_title(f"FDA {case}: $\\Gamma$ = {fl.Gamma:g}, e = {fl.e:g}, M = {fl.M}, {lat.n_nodes} nodes "
                  f"(spacing {lat.spacing:.3g}), {law}", fontsize=9)
     if roundoff:
@@ -123,9 +123,12 @@ def run(args):
     from ..flat import FlatLayer
     from ._output import figure_path
 
+    from ..fda import METHODS
+
     if args.periods < 1:
         raise ValueError(f"--periods must be an integer >= 1, got {args.periods}")
-    if args.method.startswith("soft"):
+    impulsive = METHODS[args.method].impulsive
+    if "cutoff" in METHODS[args.method].OPTIONS or not impulsive:
         if args.cutoff is None:
             raise ValueError(f"--cutoff is required with --method {args.method} (the length of the soft "
                              "contact, a finite number > 0)")
@@ -138,7 +141,6 @@ def run(args):
     fl = FlatLayer(args.gamma, args.M, e=args.e)
     lat, t, w, z = initial_state(args.case, fl, args)
     T = fl.period
-    impulsive = not args.method.startswith("soft")
     extra = dict(impact=args.impact, rho_c=args.rho_c) if impulsive else dict(cutoff=args.cutoff)
     stuck = None
     print(f"simulate {args.case}: {lat!r}, method {args.method}, Gamma = {fl.Gamma:g}, e = {fl.e:g}, "
