@@ -191,31 +191,40 @@ class CycleProblem:
         self.level = -math.cos(flat.t0)
         self.coupling = coupling
 
-    def _R(self, tc):
-        """R_jk = sum_p V_jp H(lambda_p, tc_j - tc_k) Vinv_pk and R' (H -> lambda H - 1/T,
-        i.e. R' = A R - I/T), in row blocks so that the (rows, k, p) tensors stay within
-        BLOCK_BYTES."""
+    def _blocks(self, tc, derivative):
+        """R_jk = sum_p V_jp H(lambda_p, tc_j - tc_k) Vinv_pk (``derivative``: R', H -> lambda H - 1/T,
+        i.e. R' = A R - I/T), in row blocks so that the (rows, k, p) tensor stays within
+        BLOCK_BYTES.  With a single block the tensor H is returned too (the Jacobian reuses it)."""
         n = tc.size
-        R, Rp = np.empty((n, n)), np.empty((n, n))
-        for rows in _row_blocks(n):
+        blocks = _row_blocks(n)
+        R = np.empty((n, n))
+        H = None
+        for rows in blocks:
             tau = np.mod(tc[rows, None] - tc[None, :], self.T)                  # (j, k)
             Hjk = _H(self.lam[None, None, :], tau[:, :, None], self.T)          # (j, k, p)
+            if len(blocks) == 1:
+                H = Hjk
+            if derivative:
+                Hjk = self.lam[None, None, :] * Hjk - 1.0 / self.T
             R[rows] = np.einsum("jp,jkp,pk->jk", self.V[rows], Hjk, self.Vinv)
-            Hjk *= self.lam[None, None, :]
-            Hjk -= 1.0 / self.T
-            Rp[rows] = np.einsum("jp,jkp,pk->jk", self.V[rows], Hjk, self.Vinv)
-        return R, Rp
+        return R, H
 
     def residual(self, tc):
-        """F(tc) and R'(tc_j - tc_k), reused by the Jacobian."""
-        R, Rp = self._R(tc)
+        """F(tc) and, when it fits in one block, H(lambda_p, tc_j - tc_k) for the Jacobian."""
+        R, H = self._blocks(tc, derivative=False)
         F = -np.cos(tc) + self.J * np.sum(R, axis=1) - self.level
-        return F, Rp, None
+        return F, H, None
 
-    def jacobian_operator(self, tc, Rp, _phase):
+    def jacobian_operator(self, tc, H, _phase):
         from scipy.sparse.linalg import aslinearoperator
 
         n = tc.size
+        # R'(tau) = V diag(lam H - 1/T) V^{-1}  (= A R - I/T)
+        if H is not None:
+            dH = self.lam[None, None, :] * H - 1.0 / self.T
+            Rp = np.einsum("jp,jkp,pk->jk", self.V, dH, self.Vinv)
+        else:
+            Rp = self._blocks(tc, derivative=True)[0]
         Jm = -self.J * Rp
         Jm[np.arange(n), np.arange(n)] += np.sin(tc) + self.J * np.sum(Rp, axis=1)
         slope = np.diag(Jm).copy()
