@@ -135,7 +135,7 @@ def front_width(orb, n_samples=512):
     return tuple(out)
 
 
-def e0_kinks(dxs=(2.0, 1.0, 0.5), length=40.0, Gamma=4.1, M=2, periods=10, max_iter=20, callback=None):
+def e0_kinks(dxs=(2.0, 1.0, 0.5), length=40.0, Gamma=4.1, M=2, periods=10, max_iter=80, callback=None):
     """Shooting for the e = 0 kink per lattice spacing (see the module docstring)."""
     rows = []
     for dx in dxs:
