@@ -171,7 +171,7 @@ def test_harmonics_helper_for_flat_layer():
 def test_limits_can_be_changed():
     old = budget.set_limits(memory=1e6)
     try:
-        with pytest.raises(ValueError, match="is out of reach for solve_kink: estimated memory"):
+        with pytest.raises(ValueError, match="n_nodes = 8 is out of reach for solve_kink: estimated memory"):
             tps.solve_kink()
     finally:
         budget.set_limits(**old)
@@ -316,3 +316,22 @@ def test_demo_defaults_are_converged_and_checked():
     tps_rows = [item for item in verdicts if item.startswith(("oscillon TPS (", "kink TPS ("))]
     assert len(tps_rows) == 2 and all(verdicts[item] == "ok" for item in tps_rows)
     assert list(verdicts.values()).count("FAIL") == 0 and "not converged" not in verdicts.values()
+
+
+def test_lattice_cycle_in_blocks_matches_one_block():
+    """The O(n^3) residual evaluated in row blocks (bounded memory) gives the same cycle."""
+    from tps_solver.tps import cycle
+
+    lat = tps.Lattice.axisymmetric(8, 140.0, grid="uniform")
+    whole = tps.solve_lattice_cycle(lat, r_core=30.0)
+    old = cycle.BLOCK_BYTES
+    cycle.BLOCK_BYTES = 8 * 6 * 8 * 8 * 3                    # three rows per block
+    try:
+        blocks = tps.solve_lattice_cycle(lat, r_core=30.0)
+        t = np.linspace(0.0, whole.period, 7)
+        z_blocks = blocks.height(t)
+    finally:
+        cycle.BLOCK_BYTES = old
+    assert whole.converged and blocks.converged
+    np.testing.assert_allclose(blocks.tc, whole.tc, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(z_blocks, whole.height(t), rtol=0, atol=1e-12)

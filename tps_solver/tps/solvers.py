@@ -96,11 +96,15 @@ def _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign
     return flat, N, tol, max_iter, scheme
 
 
-def _check_cost(what, N, n_nodes):
-    """Refuse before allocating when the grid or the truncation is out of reach (docs: budget)."""
-    check_cost(what, "n_nodes", n_nodes, *tps_cost(1, n_nodes),
+def _check_cost(what, N, n_nodes, total_nodes=None):
+    """Refuse before allocating when the grid or the truncation is out of reach (tps_solver.budget).
+
+    ``total_nodes``: the nodes of the result (a kink mirrors its ``n_nodes`` half-line nodes).
+    """
+    total = n_nodes if total_nodes is None else total_nodes
+    check_cost(what, "n_nodes", n_nodes, *tps_cost(1, total),
                hint=f"the default grid has {defaults.N_NODES} nodes")
-    check_cost(what, "n_harmonics", N, *tps_cost(N, n_nodes),
+    check_cost(what, "n_harmonics", N, *tps_cost(N, total),
                hint=f"the default is {defaults.N_HARMONICS}; the cost grows like N^2 n_nodes")
 
 
@@ -231,7 +235,7 @@ def _solve(geometry, Gamma, M, e, t0, n_harmonics, length, n_nodes, tc_initial, 
                                                   scheme, paper_sign, callback)
     if not isinstance(continuation, bool):
         raise ValueError(f"continuation must be True or False, got {continuation!r}")
-    _check_cost("solve_kink" if geometry == "planar" else "solve_oscillon", N,
+    _check_cost("solve_kink" if geometry == "planar" else "solve_oscillon", N, n_nodes,
                 2 * n_nodes if geometry == "planar" else n_nodes)
     h = length / (n_nodes - (0.5 if geometry == "planar" else 1.0))
     x = node_positions(geometry, h, n_nodes)
