@@ -120,16 +120,18 @@ def test_python_dash_m_tps_solver():
 
 
 @pytest.mark.parametrize("argv", [
-    ["flat", "--plot", "/nonexistent/x.png"],
-    ["simulate", "flat", "--nodes", "3", "--periods", "1", "--plot", "/nonexistent/x.png"],
-    ["stability", "--kh", "1", "--plot", "/nonexistent/x.png"],
-    ["kink", "--save", "/nonexistent/x.npz"],
-    ["oscillon", "--plot", "/nonexistent/figures"],
-    ["flat", "--plot", "x.unknownformat"],
+    ["flat", "--plot", "{missing}/x.png"],
+    ["simulate", "flat", "--nodes", "3", "--periods", "1", "--plot", "{missing}/x.png"],
+    ["stability", "--kh", "1", "--plot", "{missing}/x.png"],
+    ["kink", "--save", "{missing}/x.npz"],
+    ["oscillon", "--plot", "{missing}/figures"],
+    ["flat", "--plot", "{tmp}/x.unknownformat"],
 ])
-def test_unwritable_outputs_fail_in_one_line_before_the_run(argv, capsys):
-    assert not os.path.exists("/nonexistent")
+def test_unwritable_outputs_fail_in_one_line_before_the_run(argv, tmp_path, capsys):
+    # (a directory under tmp_path that does not exist, rather than /nonexistent: the tests may run as root)
+    argv = [a.format(missing=tmp_path / "nonexistent", tmp=tmp_path) for a in argv]
     assert main(argv) == 2
+    assert not (tmp_path / "nonexistent").exists() and os.listdir(tmp_path) == []
     out, err = _err_line(capsys)
     assert out == ""                        # refused before any computation
     flag = "--save" if "--save" in argv else "--plot"
