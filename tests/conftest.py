@@ -3,6 +3,7 @@
 Property-based tests are reproducible: the hypothesis profile ``"ci"`` (loaded here) is
 derandomized (examples come from a fixed seed derived from the test), keeps no example
 database, and prints the reproducing blob of any failure, so a run can never fail by chance.
+A failure found this way is kept as an explicit ``@example``.
 """
 import os
 import sys
@@ -15,6 +16,8 @@ if _ROOT not in sys.path:
     sys.path.insert(0, _ROOT)
 
 settings.register_profile("ci", derandomize=True, database=None, print_blob=True, deadline=None)
+# HYPOTHESIS_PROFILE=explore draws fresh random examples (to hunt for new failures locally, never in CI)
+settings.register_profile("explore", derandomize=False, max_examples=500, deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
