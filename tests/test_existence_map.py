@@ -76,7 +76,8 @@ def test_basins_reproduce_the_issue_statements():
 # ------------------------------------------------------------------ fronts (fast subset)
 @pytest.fixture(scope="module")
 def kink_e0():
-    return em.front_run("kink", 4.0, 0.0, dx=0.8, extent=24.0, periods=8, keep_state=False)
+    return em.front_run("kink", 4.0, 0.0, dx=0.8, extent=24.0, periods=8, keep_state=False,
+                        config=dict(n_samples=8, basin_periods=40))
 
 
 def test_inelastic_kink_relaxes_to_a_stationary_single_pattern_front(kink_e0):
@@ -88,13 +89,23 @@ def test_inelastic_kink_relaxes_to_a_stationary_single_pattern_front(kink_e0):
 
 
 def test_paper_case_kink_front_launches_a_multi_contact_state():
-    r = em.front_run("kink", 2.5, 0.45, dx=0.4, extent=8.0, periods=2, keep_state=False)
+    r = em.front_run("kink", 2.5, 0.45, dx=0.8, extent=24.0, periods=2, keep_state=False,
+                     config=dict(n_samples=16, basin_periods=60))
     assert r["ref_count"] == 1
     assert r["widths"][-1] > r["widths"][0] > 0.0                  # the disordered region grows
     assert r["invader"] > 1.0                                      # more than one contact per node and period
     assert r["verdict"] == "invades" and r["speed"] > 0.0
 
 
-def test_no_flat_orbit_is_reported_not_simulated():
-    r = em.front_run("kink", 1.5, 0.45, dx=0.8, extent=8.0, periods=1)
-    assert r["verdict"] == "no flat orbit" and r["seconds"] == 0.0
+def test_no_f2_attractor_is_reported_not_simulated():
+    r = em.front_run("kink", 1.5, 0.45, dx=0.8, extent=8.0, periods=1, config=dict(n_samples=8, basin_periods=40))
+    assert r["verdict"] == "no f/2 attractor" and "defects" not in r
+
+
+def test_f1_cycle_labelled_f2_by_flat_basins_is_not_counted():
+    """At (3.25, 0.05) flat_basins calls an f/1 bounce (negative one-cycle multiplier) period 2; its strobe
+    points at t = 0 and T/2 coincide, so the map does not count it as an f/2 state."""
+    b = em.basin_point(3.25, 0.05, n_samples=8, periods=60)
+    assert b["library_flat_fraction"] == 1.0
+    assert b["flat_fraction"] == 0.0 and b["f1_as_f2"] == 1.0
+    assert em.flat_phases(3.25, 0.05, n_samples=8, periods=60) is None

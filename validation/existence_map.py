@@ -50,11 +50,9 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from tps_solver.fda import kink_state
-from validation.figures import oscillon_state
 from validation.report import FIGURES_DIR, markdown_table, merged_config, publish
 
-__all__ = ["CONFIG", "CUTOFFS", "flat_orbit", "basin_point", "basin_map", "flat_count", "front_run", "verdict",
+__all__ = ["CONFIG", "CUTOFFS", "flat_orbit", "flat_phases", "basin_point", "basin_map", "flat_count", "front_run", "verdict",
            "shoot", "select_front_points", "timing_study", "fast_subset", "plot", "main"]
 
 #: Soft-contact cut-offs of the map (viscous lengths).
@@ -69,13 +67,16 @@ CONFIG = dict(
     gamma_values=tuple(round(1.5 + 0.25 * k, 2) for k in range(15)),      # 1.5 ... 5.0
     soft_e_values=(0.05, 0.1, 0.2, 0.3, 0.45, 0.6),                       # the soft model needs e > 0
     n_samples=32, basin_periods=100, seed=0,
-    kink_length=40.0, oscillon_r_max=20.0, dx=(0.4, 0.2), periods=12,
+    kink_length=40.0, oscillon_r_max=20.0, dx=(0.4, 0.2), periods=10,
     width=1.0, r_core=2.0, osc_width=1.0,
-    settle_tol=1e-6, front_max=4.0, invade_fraction=0.8,
-    basin_threshold=0.5, control=(2.5, 0.45), max_front_points=12, max_oscillon_points=6,
-    shoot_max_iter=12, shoot_krylov=40, shoot_budget=300.0, max_shoot=4, results_path=None,
-    soft_cutoff=0.5, soft_length=8.0, soft_periods=4, soft_budget=600.0,
-    timing_points=8, max_workers=2, store=None,
+    settle_tol=1e-5, front_max=4.0, invade_fraction=0.8,
+    basin_threshold=0.5, control=(2.5, 0.45), max_front_points=8, max_oscillon_points=4,
+    shoot_max_iter=12, shoot_krylov=40, shoot_budget=240.0, max_shoot=3, results_path=None,
+    soft_cutoff=0.3, soft_length=8.0, soft_periods=4, soft_budget=400.0,
+    map_overrides={f"soft l={c}": dict(soft_e_values=(0.1, 0.2, 0.45), n_samples=16,
+                                       gamma_values=tuple(round(1.5 + 0.5 * k, 2) for k in range(8)))
+                   for c in (0.3, 0.5)},
+    timing_points=6, max_workers=2, store=None,
 )
 
 
@@ -108,13 +109,19 @@ def _window_text(Gamma, e, M):
     return f"{lo:.3f}-{hi:.3f}"
 
 
-def basin_point(Gamma, e, model="point", cutoff=None, M=2, n_samples=32, periods=100, seed=0):
+def basin_point(Gamma, e, model="point", cutoff=None, M=2, n_samples=32, periods=100, seed=0, version=2):
     """f/M basin fraction of one node at (Gamma, e); a module-level task for :func:`tps_solver.sweep`.
+
+    ``version`` only keys the sweep store (2: an f/M attractor whose strobe points at
+    t = 0 and T/2 coincide -- an f/(M/2) cycle that ``flat_basins`` labelled period M,
+    which happens when its one-cycle multiplier is negative -- is not counted).
 
     Returns
     -------
     dict
-        ``Gamma, e, model, cutoff, flat_fraction, flat_stderr, irregular`` (fraction),
+        ``Gamma, e, model, cutoff, flat_fraction`` (f/M attractors with distinct phases),
+        ``library_flat_fraction`` (``flat_basins``' own), ``f1_as_f2`` (the difference),
+        ``flat_stderr, irregular`` (fraction),
         ``n_attractors``, ``top`` (label of the most frequent attractor and its fraction),
         ``flat_label`` (label of the f/M attractor, or None), ``flat_mu`` (its largest
         |multiplier|, or None), ``pattern`` (FlatLayer pattern that exists, or None),
@@ -124,16 +131,26 @@ def basin_point(Gamma, e, model="point", cutoff=None, M=2, n_samples=32, periods
     kw = dict(soft_sticking=True) if model == "soft" else {}
     res = tps.flat_basins(Gamma, e, M=M, n_samples=n_samples, seed=seed, model=model, cutoff=cutoff,
                           periods=periods, **kw)
-    flat = [a for a in res.attractors if a.is_flat]
+    flat = [a for a in res.attractors if a.is_flat and _distinct(a, M)]
+    fake = [a for a in res.attractors if a.is_flat and not _distinct(a, M)]
     top = res.attractors[0] if res.attractors else None
     fl = flat_orbit(Gamma, e, M)
-    return dict(Gamma=Gamma, e=e, model=model, cutoff=cutoff, flat_fraction=float(res.flat_fraction),
-                flat_stderr=float(res.flat_stderr), irregular=float(res.irregular.fraction),
-                n_attractors=len(res.attractors),
+    f2 = float(sum(a.fraction for a in flat))
+    return dict(Gamma=Gamma, e=e, model=model, cutoff=cutoff, flat_fraction=f2,
+                flat_stderr=math.sqrt(f2 * (1.0 - f2) / n_samples),
+                library_flat_fraction=float(res.flat_fraction), f1_as_f2=float(sum(a.fraction for a in fake)),
+                irregular=float(res.irregular.fraction), n_attractors=len(res.attractors),
                 top=(f"{top.label} ({top.fraction:.2f})" if top is not None else "irregular"),
                 flat_label=flat[0].label if flat else None,
                 flat_mu=float(np.max(np.abs(flat[0].multipliers))) if flat else None,
                 pattern=fl.pattern if fl is not None else None, seconds=time.perf_counter() - start)
+
+
+def _distinct(attractor, M):
+    """An f/M attractor whose strobe points at t = 0 and T/2 differ (else it is an f/(M/2) cycle counted twice)."""
+    p = np.asarray(attractor.points, float)
+    j = M // 2
+    return bool(np.max(np.abs(p[0] - p[j])) > 1e-6 or attractor.modes[0] != attractor.modes[j])
 
 
 def basin_map(model="point", cutoff=None, config=None, executor=None, store=None):
@@ -141,7 +158,8 @@ def basin_map(model="point", cutoff=None, config=None, executor=None, store=None
     cfg = merged_config(CONFIG, None, config)
     es = cfg["e_values"] if model == "point" else cfg["soft_e_values"]
     params = [dict(Gamma=float(G), e=float(e), model=model, cutoff=cutoff, M=cfg["M"], n_samples=cfg["n_samples"],
-                   periods=cfg["basin_periods"], seed=cfg["seed"]) for e in es for G in cfg["gamma_values"]]
+                   periods=cfg["basin_periods"], seed=cfg["seed"], version=2)
+              for e in es for G in cfg["gamma_values"]]
     start = time.perf_counter()
     rows = tps.sweep(basin_point, params, executor=executor, store=store, progress=False,
                      max_workers=cfg["max_workers"])
@@ -179,16 +197,73 @@ def flat_count(fl, method="exact", cutoff=None, t_start=None):
     return int(np.median(_counts(run.events, 3)))
 
 
-def _initial(geometry, lattice, fl, t, cfg):
+def flat_phases(Gamma, e, M=2, model="point", cutoff=None, n_samples=32, periods=100, seed=0):
+    """The two phases of the f/M flat state that attracts: its strobe points at t = 0 and t = T/2.
+
+    The most frequent f/M attractor of :func:`tps_solver.flat_basins` (the same
+    samples as :func:`basin_point`); its points at :math:`t = 0` and
+    t = 2 pi are the two flat layers of a kink, half a period apart,
+    whatever their contact pattern (single bounce, two bounces, chatter and
+    stick).
+
+    Returns
+    -------
+    dict or None
+        ``label`` (the attractor's label), ``A``, ``B`` (``(w, zeta, stuck)`` at
+        t = 0 and t = T/2), ``fraction`` (its basin fraction); None if no sample
+        reached an f/M state.
+
+    Examples
+    --------
+    >>> ph = flat_phases(4.0, 0.0, n_samples=4, periods=40)
+    >>> ph["label"], ph["A"] != ph["B"]
+    ('f/2 (1 impact, 1 stick)', True)
+    """
+    kw = dict(soft_sticking=True) if model == "soft" else {}
+    res = tps.flat_basins(Gamma, e, M=M, n_samples=n_samples, seed=seed, model=model, cutoff=cutoff,
+                          periods=periods, **kw)
+    flat = [a for a in res.attractors if a.is_flat and _distinct(a, M)]
+    if not flat:
+        return None
+    a = flat[0]
+    states = []
+    for j in (0, M // 2):
+        stuck = a.modes[j] == "stuck"
+        states.append((0.0 if stuck else float(a.points[j, 0]), 0.0 if stuck else float(a.points[j, 1]), stuck))
+    return dict(label=a.label, A=states[0], B=states[1], fraction=float(a.fraction))
+
+
+def _uniform_count(ph, Gamma, e, T, method, cutoff):
+    """Contacts per period of the flat state on a uniform 3-node lattice, and its return distance."""
+    lat = tps.Lattice.planar(n_nodes=3, length=10.0, boundary="neumann")
+    w, z, st = ph["A"]
+    kw = {} if cutoff is None else dict(cutoff=cutoff)
+    if st and cutoff is None:
+        kw["stuck0"] = np.ones(3, bool)
+    run = tps.simulate(lat, Gamma, e, np.full(3, w), np.full(3, z), t_start=0.0, t_end=T, method=method, **kw)
+    ret = max(abs(float(run.w[0]) - w), abs(float(run.zeta[0]) - z))
+    return int(np.median(_counts(run.events, 3))), ret
+
+
+def _initial(geometry, lattice, ph, cfg):
+    """Kink: phase A for x < 0, B for x > 0; oscillon: B inside r_core, A outside; linear joins."""
+    x = lattice.nodes
     if geometry == "kink":
-        return kink_state(lattice, fl, t, cfg["width"])
-    return oscillon_state(lattice, fl, t, r_core=cfg["r_core"], width=cfg["osc_width"])
+        theta = np.clip(x / cfg["width"] + 0.5, 0.0, 1.0) if cfg["width"] > 0 else (x > 0).astype(float)
+        lo, hi = ph["A"], ph["B"]
+    else:
+        theta = np.clip((x - cfg["r_core"]) / cfg["osc_width"] + 0.5, 0.0, 1.0)
+        lo, hi = ph["B"], ph["A"]
+    w = (1.0 - theta) * lo[0] + theta * hi[0]
+    z = (1.0 - theta) * lo[1] + theta * hi[1]
+    stuck = ((theta == 0.0) & lo[2]) | ((theta == 1.0) & hi[2])
+    return w, z, stuck
 
 
-def _phase_labels(w, z, fl, t):
-    """Per node: 0 if nearer the flat orbit at t, 1 if nearer the orbit at t + T/2; and that distance."""
-    da = np.maximum(np.abs(w - fl.velocity(t)), np.abs(z - fl.height(t)))
-    db = np.maximum(np.abs(w - fl.velocity(t + 0.5 * fl.period)), np.abs(z - fl.height(t + 0.5 * fl.period)))
+def _phase_labels(w, z, ph):
+    """Per node: 0 if nearer phase A, 1 if nearer phase B (at t = 0 mod T); and that distance."""
+    da = np.maximum(np.abs(w - ph["A"][0]), np.abs(z - ph["A"][1]))
+    db = np.maximum(np.abs(w - ph["B"][0]), np.abs(z - ph["B"][1]))
     return (db < da).astype(int), np.minimum(da, db)
 
 
@@ -309,19 +384,22 @@ def front_run(geometry="kink", Gamma=4.0, e=0.0, dx=0.4, extent=None, periods=12
     if extent is None:
         extent = cfg["kink_length"] if geometry == "kink" else cfg["oscillon_r_max"]
     out = dict(geometry=geometry, Gamma=Gamma, e=e, dx=dx, extent=extent, method=method, cutoff=cutoff)
-    fl = flat_orbit(Gamma, e, cfg["M"])
-    if fl is None:
-        out.update(verdict="no flat orbit", pattern=None, rate=None, speed=None, seconds=0.0, cpu=0.0)
-        return out
     start, cpu0 = time.perf_counter(), time.process_time()
+    model = "point" if cutoff is None else "soft"
+    ph = flat_phases(Gamma, e, cfg["M"], model, cutoff, cfg["n_samples"], cfg["basin_periods"], cfg["seed"])
+    if ph is None:
+        out.update(verdict="no f/2 attractor", pattern=None, rate=None, speed=None,
+                   seconds=time.perf_counter() - start, cpu=time.process_time() - cpu0)
+        return out
     kw = {} if cutoff is None else dict(cutoff=cutoff)
     impulsive = cutoff is None
-    ref = flat_count(fl, method, cutoff)
+    T = 2.0 * math.pi * cfg["M"]
+    ref, flat_return = _uniform_count(ph, Gamma, e, T, method, cutoff)
     lat = _lattice(geometry, dx, extent)
-    T = fl.period
-    t = fl.t0 + 0.3 * T
-    w, z = _initial(geometry, lat, fl, t, cfg)
-    stuck = None
+    t = 0.0
+    w, z, stuck = _initial(geometry, lat, ph, cfg)
+    if not impulsive:
+        stuck = None
     rec = dict(defects=[], widths=[], fronts=[], alive=[], far=[])
     invader = None
     full = cfg["invade_fraction"] * extent
@@ -343,7 +421,7 @@ def front_run(geometry="kink", Gamma=4.0, e=0.0, dx=0.4, extent=None, periods=12
         invader = float(np.median(c[bad])) if bad.any() else None
         w, z, t = run.w, run.zeta, t + T
         stuck = np.asarray(run.stuck, bool) if impulsive else None
-        lab, dist = _phase_labels(w, z, fl, t)
+        lab, dist = _phase_labels(w, z, ph)
         n_b = int(np.count_nonzero(lab))
         rec["fronts"].append(float((lat.n_nodes - n_b) * lat.spacing if geometry == "kink" else n_b * lat.spacing))
         rec["alive"].append(bool(0 < n_b < lat.n_nodes))
@@ -353,7 +431,8 @@ def front_run(geometry="kink", Gamma=4.0, e=0.0, dx=0.4, extent=None, periods=12
         if n_full >= 2 or n_dead >= 2 or (k >= 3 and rec["defects"][-1] < 1e-3 * cfg["settle_tol"]):
             break
     if not rec["defects"]:
-        out.update(n_nodes=lat.n_nodes, pattern=fl.pattern, ref_count=ref, verdict="budget exceeded", rate=None,
+        out.update(n_nodes=lat.n_nodes, pattern=ph["label"], ref_count=ref, flat_return=flat_return,
+                   verdict="budget exceeded", rate=None,
                    speed=None, invader=None, periods_run=0, seconds=time.perf_counter() - start,
                    cpu=time.process_time() - cpu0, seconds_per_period=None, budget_hit=True, **rec)
         return out
@@ -366,7 +445,8 @@ def front_run(geometry="kink", Gamma=4.0, e=0.0, dx=0.4, extent=None, periods=12
         speed = 0.5 * rate if geometry == "kink" else rate
     else:
         speed = abs(rate)
-    out.update(n_nodes=lat.n_nodes, pattern=fl.pattern, ref_count=ref, verdict=label, rate=rate, speed=speed,
+    out.update(n_nodes=lat.n_nodes, pattern=ph["label"], ref_count=ref, flat_return=flat_return, verdict=label,
+               rate=rate, speed=speed,
                invader=invader, periods_run=len(rec["defects"]), seconds=seconds, cpu=time.process_time() - cpu0,
                seconds_per_period=seconds / max(len(rec["defects"]), 1), budget_hit=budget_hit, **rec)
     if keep_state:
@@ -597,15 +677,22 @@ def main(config=None):
     log = lambda msg: print(f"[{time.perf_counter() - t_main:7.0f} s] {msg}", flush=True)   # noqa: E731
     workers = cfg["max_workers"]
 
-    # 1. basin maps
+    # 1. basin maps (the second soft cut-off runs last, after the fronts)
     maps, map_times = {}, {}
-    for model, cut in [("point", None)] + [("soft", c) for c in cfg.get("cutoffs", CUTOFFS)]:
+
+    def run_map(model, cut):
         key = "point" if model == "point" else f"soft l={cut}"
-        rows, wall = basin_map(model, cut, cfg, store=_store(cfg, f"basin_{model}_{cut}"))
+        sub = dict(cfg)
+        sub.update(cfg.get("map_overrides", {}).get(key, {}))
+        rows, wall = basin_map(model, cut, sub, store=_store(cfg, f"basin_{model}_{cut}"))
         for r in rows:
-            r["n_samples"] = cfg["n_samples"]
+            r["n_samples"] = sub["n_samples"]
         maps[key], map_times[key] = rows, wall
         log(f"basin map {key}: {len(rows)} points, {wall:.0f} s")
+
+    cutoffs = list(cfg.get("cutoffs", CUTOFFS))
+    run_map("point", None)
+    run_map("soft", cutoffs[0])
 
     # 2.-4. fronts at the points where the point-impact f/2 basin is large, and the control
     pts = select_front_points(maps["point"], cfg["basin_threshold"], cfg["control"], cfg["max_front_points"])
@@ -651,6 +738,9 @@ def main(config=None):
     for i, o in zip(settled, orbits):
         fronts[i]["orbit"] = o
     log(f"shooting: {len(orbits)} orbits, {time.perf_counter() - t0:.0f} s")
+
+    for cut in cutoffs[1:]:
+        run_map("soft", cut)
 
     # 5. timing: 1 against 2 workers
     timing = timing_study(cfg["timing_points"], cfg)
