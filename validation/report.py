@@ -44,6 +44,12 @@ SECTION_ORDER = (
     ("cutoff", "Cut-off length (docs/design.md, hazard 8)"),
     ("speed", "Speed against error"),
     ("figures", "The paper's figures"),
+    ("flat_sticking", "Flat orbits with sticking, touch-and-go and chatter (e -> 0)"),
+    ("tps_stick", "The TPS for impact-and-stick contacts"),
+    ("basins", "Basins of the bouncing ball"),
+    ("shooting", "Periodic orbits of any contact pattern by shooting"),
+    ("continuation", "Continuation: folds and period doublings"),
+    ("existence_map", "Where kinks and oscillons exist: the existence-stability map"),
 )
 
 

@@ -18,11 +18,16 @@ import traceback
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-from validation.report import REPORT_PATH, build_report, optional_import
+from validation.report import REPORT_PATH, build_report, optional_import, write_section
 
 #: Validation modules, in the order they run.
 MODULES = ("flat_layer_analytics", "linear_stability", "tps_branches", "flat_layer", "kink", "oscillon",
-           "cutoff", "fda_benchmark", "lattice_tps", "speed_vs_error", "figures")
+           "cutoff", "fda_benchmark", "lattice_tps", "speed_vs_error", "figures", "flat_sticking",
+           "tps_stick", "basins", "shooting", "continuation", "existence_map")
+
+#: Modules whose ``main()`` prints its tables without writing a section: their printed output is
+#: the section (written to ``validation/sections/<name>.md`` after the run).
+PRINTED_SECTIONS = ("flat_sticking", "tps_stick", "basins", "shooting")
 
 
 def run_modules(names=MODULES, stream=None):
@@ -59,7 +64,10 @@ def run_modules(names=MODULES, stream=None):
                 entry["status"] = "no main"
             else:
                 print(f"\n=== validation.{name} ===", file=stream, flush=True)
-                mod.main()
+                if name in PRINTED_SECTIONS:
+                    _run_printed(mod, name, stream)
+                else:
+                    mod.main()
         except SystemExit as exc:  # a main that calls sys.exit: only a non-zero code is a failure
             if exc.code not in (None, 0):
                 entry["status"] = "failed"
@@ -74,6 +82,20 @@ def run_modules(names=MODULES, stream=None):
         print(f"--- validation.{name}: {note} ({entry['seconds']:.1f} s)", file=stream, flush=True)
         log.append(entry)
     return log
+
+
+def _run_printed(mod, name, stream):
+    """Run ``mod.main()``, echo what it prints, and write that text as the module's section."""
+    import contextlib
+    import io
+
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        mod.main()
+    text = buffer.getvalue()
+    stream.write(text)
+    header = (f"Printed by `python -m validation.{name}` (code and tests: see the module's docstring).\n\n")
+    write_section(name, header + text)
 
 
 def log_lines(log):
