@@ -59,9 +59,10 @@ def _H(lam, tau, T):
     With mu = lambda T and x = tau/T:  H = [f2(mu) - x phi1(mu x)] / phi1(mu), where
     phi1(z) = (e^z - 1)/z and f2(z) = (e^z - 1 - z)/z^2 -- free of the 1/mu cancellation of
     the textbook form and equal to 1/2 - x at mu = 0.  At x = 0 the mean of the jump,
-    f2/phi1 - 1/2, is returned.
+    f2/phi1 - 1/2, is returned.  The factors of mu alone are evaluated on ``lam``'s own
+    shape (once per mode), only phi1(mu x) on the broadcast shape.
     """
-    lam, tau = np.broadcast_arrays(np.asarray(lam, dtype=float), np.asarray(tau, dtype=float))
+    lam, tau = np.asarray(lam, dtype=float), np.asarray(tau, dtype=float)
     mu = lam * T
     x = tau / T
     p1 = phi1(mu)
@@ -73,7 +74,7 @@ def _H(lam, tau, T):
 def _H_int(lam, tau, T):
     """Zero-mean antiderivative of H in tau (continuous, T-periodic):
     T [f2(mu) x - x^2 f2(mu x) - (f2(mu)/2 - f3(mu))] / phi1(mu)."""
-    lam, tau = np.broadcast_arrays(np.asarray(lam, dtype=float), np.asarray(tau, dtype=float))
+    lam, tau = np.asarray(lam, dtype=float), np.asarray(tau, dtype=float)
     mu = lam * T
     x = tau / T
     f2 = taylor_tail(mu, 2)
