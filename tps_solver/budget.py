@@ -227,9 +227,10 @@ def lattice_cost(n_nodes):
 
 def cycle_cost(n_nodes, newton_steps=60):
     """Memory and time of :func:`~tps_solver.solve_lattice_cycle` (O(n^3) work per residual,
-    evaluated in row blocks of at most about 64 MB, plus ``eigh`` and dense n x n matrices)."""
+    evaluated in row blocks of at most about 512 MB, plus ``eigh`` and dense n x n matrices)."""
     n = float(n_nodes)
-    block = 12 * 8.0 * n * n * max(1.0, min(n, 64e6 / (12 * 8.0 * n * n)))
+    rows = min(n, max(1.0, 512e6 / (48.0 * n * n)))
+    block = 1.5 * 48.0 * n * n * rows
     nbytes = 10 * 8.0 * n * n + block + lattice_cost(n_nodes)[0]
     seconds = newton_steps * 3 * 8 * n ** 3 / _EXP_RATE + 10 * n ** 3 / _FLOP_RATE
     return nbytes, seconds

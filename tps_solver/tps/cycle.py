@@ -47,8 +47,9 @@ from .engine import continuation as run_continuation, newton
 from .problems import decoupled_spacing
 from .solvers import lattice_initial_tc, next_steps
 
-#: Bytes of one block of the (rows x nodes x modes) tensors of the cycle residual.
-BLOCK_BYTES = 64e6
+#: Bytes of one block of the (rows x nodes x modes) tensors of the cycle residual (about six live
+#: at once); up to about 220 nodes the whole tensor is one block and the Jacobian reuses it.
+BLOCK_BYTES = 512e6
 
 __all__ = ["LatticeCycle", "solve_lattice_cycle"]
 
