@@ -80,7 +80,7 @@ from scipy.linalg import lapack
 
 from .._checks import check_int, check_positive
 from .base import Integrator, Step
-from .lattice import Lattice
+from ..lattice import Lattice
 from ..flat_soft import soft_contact_parameters
 
 __all__ = ["SoftIntegrator", "radau_iia"]
