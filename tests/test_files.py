@@ -7,7 +7,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from tps_solver import FlatLayer, Lattice, check_stability, load, simulate, solve_kink, solve_lattice_cycle
+from tps_solver import (FlatLayer, Lattice, check_stability, load, secular_roots, simulate, solve_kink,
+                        solve_lattice_cycle)
 from tps_solver import io
 
 
@@ -24,6 +25,7 @@ def results():
         "LatticeCycle": solve_lattice_cycle(Lattice.planar(n_nodes=8, length=140.0), e=0.45, t0=None),
         "StabilityResult": check_stability(fl, periods=3, n_nodes=4),
         "SimulationResult": run,
+        "SecularRoots": secular_roots(1.0, "varicose", 4),
     }
 
 

@@ -4,7 +4,7 @@ A result file is a NumPy ``.npz`` archive read with ``allow_pickle=False``.  It 
 
 * ``format`` = ``"tps_solver"`` and ``format_version`` (:data:`FORMAT_VERSION`);
 * ``kind``: the result type, a key of :data:`KINDS` (``"PeriodicSolution"``,
-  ``"LatticeCycle"``, ``"StabilityResult"``, ``"SimulationResult"``);
+  ``"LatticeCycle"``, ``"StabilityResult"``, ``"SimulationResult"``, ``"SecularRoots"``);
 * the fields of the result, each a NumPy array (numbers, strings, 0-d arrays for
   scalars); a :class:`~tps_solver.Lattice` is stored as its nodes, geometry,
   boundary and grid, a :class:`~tps_solver.FlatLayer` as (Gamma, M, e, t0).
@@ -62,6 +62,7 @@ KINDS = {
     "LatticeCycle": "tps_solver.tps.cycle",
     "StabilityResult": "tps_solver.limit_cycles",
     "SimulationResult": "tps_solver.fda.common",
+    "SecularRoots": "tps_solver.linear_stability",
 }
 _META = ("format", "format_version", "kind")
 _V0_KEYS = {"geometry", "nodes", "tc", "w_hat", "zeta_hat", "zeta_shift", "Gamma", "e", "t0", "M", "N"}
@@ -169,13 +170,25 @@ def _encode_simulation(r):
     return out
 
 
+def _encode_secular_roots(r):
+    return {"kappa": np.array(float(r.kappa)), "mode": np.array(str(r.mode)),
+            "gamma": np.asarray(r.gamma, dtype=complex), "lam": np.asarray(r.lam, dtype=float),
+            "trivial": np.asarray(r.trivial, dtype=complex),
+            "trivial_is_eigenvalue": np.asarray(r.trivial_is_eigenvalue, dtype=bool),
+            "n_enclosed": np.array(int(r.n_enclosed)), "complete": np.array(bool(r.complete)),
+            "contour": np.asarray(r.contour, dtype=float),
+            "error_bound": np.asarray(r.get("error_bound", np.full(len(r.gamma), np.nan)), dtype=float),
+            "polished": np.asarray(r.get("polished", np.zeros(len(r.gamma), bool)), dtype=bool)}
+
+
 _ENCODERS = {"PeriodicSolution": _encode_periodic_solution, "LatticeCycle": _encode_lattice_cycle,
-             "StabilityResult": _encode_stability, "SimulationResult": _encode_simulation}
+             "StabilityResult": _encode_stability, "SimulationResult": _encode_simulation,
+             "SecularRoots": _encode_secular_roots}
 #: fields recomputed on load (never stored)
 _DERIVED = {"PeriodicSolution": {"flat", "checks", "period", "spacing", "success"},
             "LatticeCycle": {"flat", "period", "J", "eigenvalues", "modes", "modes_inv", "zeta_offset", "nodes",
                              "geometry", "success"},
-            "StabilityResult": set(), "SimulationResult": {"n_events"}}
+            "StabilityResult": set(), "SimulationResult": {"n_events"}, "SecularRoots": set()}
 
 
 def _extra_fields(result, fields, kind):
@@ -199,7 +212,7 @@ def save(result, path):
 
     Parameters
     ----------
-    result : PeriodicSolution, LatticeCycle, StabilityResult or SimulationResult
+    result : PeriodicSolution, LatticeCycle, StabilityResult, SimulationResult or SecularRoots
     path : str or os.PathLike
 
     Returns
@@ -504,8 +517,31 @@ def _decode_simulation(f):
         Gamma=f.float("Gamma"), e=f.float("e"))
 
 
+def _decode_secular_roots(f):
+    kappa = f.float("kappa")
+    if not kappa > 0:
+        f.fail(f"the field 'kappa' must be > 0, got {kappa}")
+    mode = f.str("mode", ("sinuous", "varicose"))
+    gamma = f.array("gamma", "fc", ndim=1, finite=True).astype(complex)
+    n = gamma.size
+    lam = f.array("lam", "f", shape=(n,), finite=True)
+    # lam = gamma^2 - 1 (computed without cancellation), sorted least damped first, all < 0
+    if not np.all(np.abs(lam - ((gamma ** 2).real - 1.0)) <= 1e-12 * (np.abs(gamma) ** 2 + 1)):
+        f.fail("inconsistent: lam is not gamma**2 - 1")
+    if np.any(lam >= 0) or np.any(np.diff(lam) >= 0):
+        f.fail("inconsistent: lam must be negative and strictly decreasing")
+    trivial = f.array("trivial", "fc", ndim=1).astype(complex)
+    return _class("SecularRoots")(
+        kappa=kappa, mode=mode, gamma=gamma, lam=lam, trivial=trivial,
+        trivial_is_eigenvalue=f.array("trivial_is_eigenvalue", "b", shape=(trivial.size,)),
+        n_enclosed=f.int("n_enclosed", minimum=0), complete=f.bool("complete"),
+        contour=tuple(float(v) for v in f.array("contour", "f", shape=(2,))),
+        error_bound=f.array("error_bound", "f", shape=(n,)), polished=f.array("polished", "b", shape=(n,)))
+
+
 _DECODERS = {"PeriodicSolution": _decode_periodic_solution, "LatticeCycle": _decode_lattice_cycle,
-             "StabilityResult": _decode_stability, "SimulationResult": _decode_simulation}
+             "StabilityResult": _decode_stability, "SimulationResult": _decode_simulation,
+             "SecularRoots": _decode_secular_roots}
 
 
 def _read_archive(path):
@@ -554,7 +590,7 @@ def load(path, kind=None):
 
     Returns
     -------
-    PeriodicSolution, LatticeCycle, StabilityResult or SimulationResult
+    PeriodicSolution, LatticeCycle, StabilityResult, SimulationResult or SecularRoots
 
     Raises
     ------

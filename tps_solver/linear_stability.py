@@ -99,6 +99,7 @@ import mpmath
 import numpy as np
 from scipy import linalg, optimize
 
+from . import io
 from ._result import Bunch
 from ._checks import check_choice, check_int, check_positive
 
@@ -543,6 +544,10 @@ class SecularRoots(Bunch):
         Roots whose double-precision bound exceeded :data:`POLISH_REL` and that were
         re-solved in mpmath (near ``KAPPA_C``, the varicose root ``gamma -> 0``).
     """
+
+    def save(self, path):
+        """Write the roots to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.io`); returns the path."""
+        return io.save(self, path)
 
 
 def secular_roots(kappa, mode, n_roots=10):
