@@ -223,6 +223,15 @@ def flat_w_hat(N, M, Gamma, tc):
     Returns
     -------
     w_hat : ndarray of complex, shape (2N+1,)
+
+    Examples
+    --------
+    The mean is 0 and the forcing harmonic :math:`n = M` is
+    :math:`e^{-it_c}/(i\Gamma) - 1/2 = -0.5 - 0.4i` for :math:`\Gamma = 2.5`, :math:`t_c = 0`:
+
+    >>> w = flat_w_hat(2, 2, 2.5, 0.0)
+    >>> complex(w[2]), complex(np.round(w[2 + 2], 12))
+    (0j, (-0.5-0.4j))
     """
     N = check_int(N, "N", minimum=1)
     M = check_int(M, "M", minimum=1)
@@ -297,6 +306,16 @@ def sawtooth(tau, M, kind="velocity"):
     Returns
     -------
     ndarray of float, same shape as ``tau``
+
+    Examples
+    --------
+    :math:`s = (\pi - x)/(2\pi)` with :math:`x = \tau/M` mod :math:`2\pi`, and
+    :math:`Z(0) = -M\pi/6`:
+
+    >>> sawtooth(np.pi * np.array([0.0, 0.5, 1.0, 1.5]), 1)
+    array([ 0.  ,  0.25,  0.  , -0.25])
+    >>> bool(abs(sawtooth(0.0, 2, "height") + 2 * np.pi / 6) < 1e-15)
+    True
     """
     M = check_int(M, "M", minimum=1)
     if kind not in ("velocity", "height"):
@@ -321,6 +340,18 @@ def sawtooth_hat(N, M, tc, kind="velocity"):
     Returns
     -------
     ndarray of complex, shape (2N+1, n_nodes)
+
+    Examples
+    --------
+    Summed with :func:`evaluate`, the coefficients give the sawtooth minus its
+    tail (:func:`sawtooth_tail`) exactly:
+
+    >>> t = np.linspace(0.0, 4 * np.pi, 7)
+    >>> c = sawtooth_hat(10, 2, [0.3])
+    >>> c.shape, complex(c[10 + 1, 0] * np.exp(0.3j / 2)) == 1 / (2j * np.pi)
+    ((21, 1), True)
+    >>> bool(np.allclose(evaluate(c, t, 2)[:, 0], sawtooth(t - 0.3, 2) - sawtooth_tail(t - 0.3, 10, 2)))
+    True
     """
     N = check_int(N, "N", minimum=1)
     M = check_int(M, "M", minimum=1)
