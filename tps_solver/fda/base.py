@@ -59,6 +59,12 @@ class Step:
     stuck : ndarray of bool, shape (n_nodes,) or None
         Continuous models: the nodes in contact at ``t``; ``None`` for impulsive
         models (the driver keeps that state).
+
+    Examples
+    --------
+    >>> s = Step(t=1.0, w=np.zeros(2), zeta=np.ones(2))
+    >>> s.contact, s.liftoff.size, s.stuck is None
+    (array([], dtype=int64), 0, True)
     """
 
     t: float
@@ -94,6 +100,20 @@ class Integrator:
         Accepted options and their defaults.
     n_steps : int
         Work counter (search steps or solver steps), reported by the driver.
+
+    Examples
+    --------
+    A subclass declares its options; any other option is refused by name:
+
+    >>> class Still(Integrator):
+    ...     name = "still"
+    ...     OPTIONS = {"tol": 1e-9}
+    >>> Still(None, 2.5, 0.45, tol=1e-6).options
+    {'tol': 1e-06}
+    >>> Still(None, 2.5, 0.45, rtol=1e-6)
+    Traceback (most recent call last):
+    ...
+    ValueError: option 'rtol' does not apply to method='still' (its options: tol)
     """
 
     name = ""

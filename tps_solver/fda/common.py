@@ -43,6 +43,23 @@ class SimulationResult(Bunch):
     method : str
     n_steps : int
         Search steps (exact) or solver steps (ode).
+
+    Examples
+    --------
+    A uniform flat layer on three nodes lands every period ``T = 4 pi`` (M = 2):
+
+    >>> import numpy as np
+    >>> from tps_solver import FlatLayer, Lattice, simulate
+    >>> from tps_solver.fda import flat_state
+    >>> fl = FlatLayer(2.5, 2, e=0.45)
+    >>> lat = Lattice.planar(n_nodes=3, length=2.0)
+    >>> res = simulate(lat, 2.5, 0.45, *flat_state(lat, fl, fl.t0), t_start=fl.t0, t_end=fl.t0 + 2 * fl.period + 1.0)
+    >>> res.status, res.n_events, sorted(set(res.events.kind.tolist()))
+    (0, 6, ['impact'])
+    >>> bool(np.allclose(res.events.t - fl.t0, [4 * np.pi] * 3 + [8 * np.pi] * 3))
+    True
+    >>> bool(np.allclose(res.zeta, fl.height(res.t), atol=1e-12))
+    True
     """
 
     def save(self, path):
@@ -51,7 +68,23 @@ class SimulationResult(Bunch):
 
 
 def check_time_window(t_start, t_end, t_eval):
-    """Validate the integration interval and the output times; returns them as floats/array."""
+    """Validate the integration interval and the output times; returns them as floats/array.
+
+    Returns
+    -------
+    t_start, t_end : float
+    t_eval : ndarray of float, shape (k,)
+        Sorted; empty when ``t_eval`` is None.
+
+    Examples
+    --------
+    >>> check_time_window(0, 2.0, [1.5, 0.5])
+    (0.0, 2.0, array([0.5, 1.5]))
+    >>> check_time_window(1.0, 0.5, None)
+    Traceback (most recent call last):
+    ...
+    ValueError: t_end must be > t_start = 1.0, got 0.5
+    """
     t_start = check_real(t_start, "t_start")
     if t_end is None:
         raise ValueError("t_end must be given (a finite number > t_start)")
@@ -67,7 +100,16 @@ def check_time_window(t_start, t_end, t_eval):
 
 
 def stack_samples(samples, n):
-    """Stack ``(t, w, zeta)`` output samples into arrays of shapes (k,), (k, n), (k, n)."""
+    """Stack ``(t, w, zeta)`` output samples into arrays of shapes (k,), (k, n), (k, n).
+
+    Examples
+    --------
+    >>> t, w, z = stack_samples([(0.0, np.zeros(2), np.ones(2)), (1.0, np.ones(2), np.zeros(2))], 2)
+    >>> t.tolist(), w.shape, z[:, 0].tolist()
+    ([0.0, 1.0], (2, 2), [1.0, 0.0])
+    >>> [a.shape for a in stack_samples([], 3)]
+    [(0,), (0, 3), (0, 3)]
+    """
     if not samples:
         return np.empty(0), np.empty((0, n)), np.empty((0, n))
     return (np.array([s[0] for s in samples]), np.array([s[1] for s in samples]),

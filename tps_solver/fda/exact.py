@@ -138,6 +138,16 @@ class Modes:
     V, Vinv, absV : ndarray of float, shape (n_free, n_free)
     s : ndarray of float, shape (n_free,)
         Modal coefficients of :math:`\underline\sigma_F`.
+
+    Examples
+    --------
+    Three nodes with Neumann ends: the eigenvalues of ``[[-2, 2, 0], [1, -2, 1], [0, 2, -2]]``
+    are -4, -2, 0, and gravity drives only the uniform (zero) mode:
+
+    >>> from tps_solver import Lattice
+    >>> md = Modes(Lattice.planar(n_nodes=3, length=2.0), np.ones(3, dtype=bool))
+    >>> md.lam.round(12).tolist(), md.forced.tolist()
+    ([-4.0, -2.0, 0.0], [2])
     """
 
     def __init__(self, lattice, free):
@@ -203,6 +213,18 @@ class Segment:
     w_free, zeta_free : ndarray of float, shape (n_free,)
         Post-event state of the free nodes.
     Gamma : float
+
+    Examples
+    --------
+    A uniform launch follows the flat layer's flight (17):
+
+    >>> from tps_solver import FlatLayer, Lattice
+    >>> fl = FlatLayer(2.5, 2, e=0.45)
+    >>> md = Modes(Lattice.planar(n_nodes=3, length=2.0), np.ones(3, dtype=bool))
+    >>> seg = Segment(md, fl.t0, np.full(3, fl.velocity(fl.t0)), np.zeros(3), 2.5)
+    >>> w, z = seg.state(1.0)
+    >>> bool(np.allclose(w, fl.velocity(fl.t0 + 1.0)) and np.allclose(z, fl.height(fl.t0 + 1.0)))
+    True
     """
 
     def __init__(self, modes, t_c, w_free, zeta_free, Gamma):
@@ -281,6 +303,19 @@ class ExactPropagator(Integrator):
         Bound on search steps between two events (raises ``RuntimeError``).
     cache_size : int
         Number of free-set decompositions kept.
+
+    Examples
+    --------
+    The next event of a uniformly launched flat layer is the landing of all nodes
+    one period ``T = 4 pi`` later:
+
+    >>> from tps_solver import FlatLayer, Lattice
+    >>> fl = FlatLayer(2.5, 2, e=0.45)
+    >>> prop = ExactPropagator(Lattice.planar(n_nodes=3, length=2.0), 2.5, 0.45)
+    >>> step = prop.advance(fl.t0, np.full(3, fl.velocity(fl.t0)), np.zeros(3), np.zeros(3, dtype=bool),
+    ...                     t_stop=fl.t0 + fl.period + 1.0)
+    >>> bool(abs(step.t - fl.t0 - 4 * np.pi) < 1e-12), step.contact.tolist()
+    (True, [0, 1, 2])
     """
 
     name = "exact"

@@ -41,6 +41,20 @@ class OdePropagator(Integrator):
         One of ``"DOP853"`` (default), ``"RK45"``, ``"RK23"``, ``"Radau"``, ``"BDF"``, ``"LSODA"``.
     samples_per_step : int
         Dense-output samples per step for the sign-change scan (default 8).
+
+    Examples
+    --------
+    The landing of a uniformly launched flat layer, one period ``T = 4 pi`` later
+    (the exact value of :class:`~tps_solver.fda.exact.ExactPropagator`):
+
+    >>> import numpy as np
+    >>> from tps_solver import FlatLayer, Lattice
+    >>> fl = FlatLayer(2.5, 2, e=0.45)
+    >>> prop = OdePropagator(Lattice.planar(n_nodes=3, length=2.0), 2.5, 0.45)
+    >>> step = prop.advance(fl.t0, np.full(3, fl.velocity(fl.t0)), np.zeros(3), np.zeros(3, dtype=bool),
+    ...                     t_stop=fl.t0 + fl.period + 1.0)
+    >>> bool(abs(step.t - fl.t0 - 4 * np.pi) < 1e-9), step.contact.tolist()
+    (True, [0, 1, 2])
     """
 
     name = "ode"

@@ -18,6 +18,14 @@ def flat_state(lattice, flat, t):
     Returns
     -------
     w, zeta : ndarray of float, shape (n_nodes,)
+
+    Examples
+    --------
+    >>> from tps_solver import FlatLayer, Lattice
+    >>> fl = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> w, z = flat_state(Lattice.planar(n_nodes=3, length=2.0), fl, fl.t0)
+    >>> z.tolist(), bool(np.all(w == fl.velocity(fl.t0)) and w[0] > 0)      # launched from the plate
+    ([0.0, 0.0, 0.0], True)
     """
     t = check_real(t, "t")
     n = lattice.n_nodes
