@@ -227,8 +227,8 @@ def test_demo_exits_zero():
                           text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     out = proc.stdout
-    for item in ("flat layer (17)-(19)", "TPS reproduces flat layer", "oscillon TPS (N=12, 40 nodes)",
-                 "kink TPS", "oscillon TPS (N=12, 6 nodes, spacing 15)", "FDA check of flat layer"):
+    for item in ("flat layer (17)-(19)", "TPS reproduces flat layer", "oscillon TPS (N=30, 8 nodes, r_max 140)",
+                 "kink TPS", "oscillon TPS, fine grid", "FDA check of flat layer"):
         assert item in out
     flat_line = next(line for line in out.splitlines() if line.startswith("TPS reproduces flat layer"))
     assert " ok " in flat_line
