@@ -71,6 +71,17 @@ def diffused_impact(w_minus, contact, e, lattice, free, rho_c):
     r"""The diffused Stosslet (67), literal and unnormalised, on the free nodes.
 
     :math:`w^+(r) = w^-(r) - (1+e)\sum_{c} w^-(r_c)\exp(-|r - r_c|/\rho_c)`.
+
+    Examples
+    --------
+    The contact node gets the point rule's :math:`-e w^-`, its neighbours at distance 1
+    a kick :math:`(1 + e)e^{-1}`:
+
+    >>> from tps_solver import Lattice
+    >>> lat = Lattice.planar(n_nodes=3, length=2.0)
+    >>> w = diffused_impact(-np.ones(3), np.array([1]), 0.5, lat, np.ones(3, dtype=bool), 1.0)
+    >>> bool(np.allclose(w, [-1 + 1.5 / np.e, 0.5, -1 + 1.5 / np.e]))
+    True
     """
     d = np.abs(lattice.nodes[:, None] - lattice.nodes[contact][None, :])
     kick = -(1.0 + e) * (np.exp(-d / rho_c) @ w_minus[contact])
@@ -89,6 +100,18 @@ def make_impact_rule(impact="point", rho_c=None):
     cutoff : dict
         ``{"kind": ..., "length": ...}``: the cut-off length in force (docs/design.md, hazard 8);
         for point impacts it is the lattice spacing (filled in by the caller).
+
+    Examples
+    --------
+    >>> rule, cutoff = make_impact_rule("point")
+    >>> rule is point_impact, cutoff
+    (True, {'kind': 'lattice spacing', 'length': None})
+    >>> make_impact_rule("diffused", rho_c=0.5)[1]
+    {'kind': 'diffused Stosslet (67)', 'length': 0.5}
+    >>> make_impact_rule("diffused")
+    Traceback (most recent call last):
+    ...
+    ValueError: rho_c must be a finite number > 0 when impact='diffused', got None
     """
     if callable(impact):
         declared = getattr(impact, "cutoff", None)
@@ -110,7 +133,28 @@ def make_impact_rule(impact="point", rho_c=None):
 
 
 class EventLog:
-    """Time-ordered event records with a per-cycle budget (docs/design.md, hazard 4)."""
+    """Time-ordered event records with a per-cycle budget (docs/design.md, hazard 4).
+
+    Parameters
+    ----------
+    t_start : float
+        Start of the run; forcing cycles :math:`2\\pi` are counted from it.
+    max_events_per_cycle : int
+        :attr:`exceeded` turns True once one cycle holds more events.
+
+    Examples
+    --------
+    >>> log = EventLog(0.0, max_events_per_cycle=2)
+    >>> log.add(1.0, np.array([0, 2]), "impact", np.array([-0.5, -0.4]))
+    >>> log.exceeded
+    False
+    >>> log.add(2.0, 1, "stick", -0.01)          # a third event in the first cycle
+    >>> log.exceeded, log.to_array().node.tolist()
+    (True, [0, 2, 1])
+    >>> log.add(7.0, 1, "liftoff", 0.0)          # the next cycle starts a new count
+    >>> log.exceeded
+    False
+    """
 
     def __init__(self, t_start, max_events_per_cycle):
         self.records = []
@@ -152,6 +196,18 @@ def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a):
     -------
     contact, liftoff : ndarray of int
         Node indices.
+
+    Examples
+    --------
+    Nodes 0 and 1 free, node 2 stuck, at :math:`t = \pi/2` (:math:`g = 0.6`): node 0 is on
+    the plate moving down (contact); node 2 is pulled up by :math:`g + 2w_1 > 0` (lift-off):
+
+    >>> from tps_solver import Lattice
+    >>> L = Lattice.planar(n_nodes=3, length=2.0).operator
+    >>> F, S = np.array([0, 1]), np.array([2])
+    >>> event_sets(np.pi / 2, np.array([-1.0, 0.5]), np.array([0.0, 1.0]), F, S,
+    ...            L[np.ix_(F, F)], L[np.ix_(S, F)], 2.5, 1e-12, 1e-14, 1e-14)
+    (array([0]), array([2]))
     """
     g = math.sin(t) - 1.0 / Gamma
     accF = L_FF @ wF + g
@@ -167,7 +223,30 @@ def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a):
 
 
 def apply_contacts(t, w, zeta, stuck, contact, lattice, Gamma, e, rule, stick_velocity, log):
-    """Process one simultaneous contact set in place (restitution, sticking). Returns the stuck nodes."""
+    """Process one simultaneous contact set in place (restitution, sticking). Returns the stuck nodes.
+
+    Examples
+    --------
+    At :math:`t = 0` (:math:`g = -0.4`) node 1 lands at a speed below ``stick_velocity``;
+    its free acceleration is negative, so it sticks (logged once, as ``"stick"``):
+
+    >>> from tps_solver import Lattice
+    >>> lat = Lattice.planar(n_nodes=3, length=2.0)
+    >>> w, zeta, stuck = np.array([-1.0, -0.05, -1.0]), np.array([0.3, 0.0, 0.3]), np.zeros(3, dtype=bool)
+    >>> log = EventLog(0.0, 100)
+    >>> apply_contacts(0.0, w, zeta, stuck, np.array([1]), lat, 2.5, 0.5, point_impact, 0.1, log)
+    array([1])
+    >>> w.tolist(), stuck.tolist(), log.records
+    ([-1.0, 0.0, -1.0], [False, True, False], [(0.0, 1, 'stick', -0.05)])
+
+    A faster landing rebounds with :math:`w^+ = -e w^-`:
+
+    >>> w = np.array([-1.0, -2.0, -1.0])
+    >>> apply_contacts(0.0, w, zeta, np.zeros(3, dtype=bool), np.array([1]), lat, 2.5, 0.5, point_impact, 0.1, log).size
+    0
+    >>> w.tolist(), log.records[-1]
+    ([-1.0, 1.0, -1.0], (0.0, 1, 'impact', -2.0))
+    """
     w_minus = w[contact].copy()
     free = ~stuck
     w_new = rule(w, contact, e, lattice, free)
@@ -191,7 +270,16 @@ def apply_contacts(t, w, zeta, stuck, contact, lattice, Gamma, e, rule, stick_ve
 
 
 def apply_liftoff(t, w, zeta, stuck, nodes, log):
-    """Release stuck nodes in place at rest on the plate."""
+    """Release stuck nodes in place at rest on the plate.
+
+    Examples
+    --------
+    >>> w, zeta, stuck = np.zeros(3), np.zeros(3), np.array([True, True, False])
+    >>> log = EventLog(0.0, 100)
+    >>> apply_liftoff(1.0, w, zeta, stuck, np.array([0]), log)
+    >>> stuck.tolist(), log.records
+    ([False, True, False], [(1.0, 0, 'liftoff', 0.0)])
+    """
     stuck[nodes] = False
     w[nodes] = 0.0
     zeta[nodes] = 0.0
@@ -204,6 +292,19 @@ def pulled_off(t, w, stuck, lattice, Gamma):
     Called after a contact set is processed: an impact next to a stuck node
     changes :math:`(\\underline L\\underline w)_i` discontinuously and may pull the node
     off the plate at the same instant.
+
+    Examples
+    --------
+    Node 1 is stuck at :math:`t = 0` (:math:`g = -0.4`); a neighbour's rebound at
+    :math:`w = 1` gives it the free acceleration :math:`g + 1 > 0`:
+
+    >>> from tps_solver import Lattice
+    >>> lat = Lattice.planar(n_nodes=3, length=2.0)
+    >>> stuck = np.array([False, True, False])
+    >>> pulled_off(0.0, np.array([1.0, 0.0, 0.0]), stuck, lat, 2.5)
+    array([1])
+    >>> pulled_off(0.0, np.array([0.2, 0.0, 0.0]), stuck, lat, 2.5).size       # g + 0.2 < 0
+    0
     """
     S = np.flatnonzero(stuck)
     if S.size == 0:
