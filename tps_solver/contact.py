@@ -158,6 +158,19 @@ class ContactResult(Bunch):
     success : bool
         ``ok.all()``.
     message : str
+
+    Examples
+    --------
+    The velocity harmonics of the flat layer launched at ``t0 = 0.3``: the contact time is
+    ``t0`` and the measured jump is ``T/Gamma = 4 pi/2.5`` (44):
+
+    >>> import numpy as np
+    >>> from tps_solver.harmonics import flat_w_hat
+    >>> res = contact_times(flat_w_hat(30, 2, 2.5, 0.3)[:, None], 2, -np.cos(0.3))
+    >>> type(res).__name__, res.success, res.tc.round(12).tolist()
+    ('ContactResult', True, [0.3])
+    >>> bool(abs(res.jump[0] - 4 * np.pi / 2.5) < 1e-6)
+    True
     """
 
 

@@ -227,6 +227,21 @@ def save(result, path):
     FileNotFoundError, PermissionError
         If the directory does not exist or cannot be written; the file is written to a
         temporary name first and renamed, so a failed save leaves no partial file.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from tps_solver import secular_roots
+    >>> roots = secular_roots(1.0, "sinuous", 3)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = save(roots, os.path.join(d, "roots"))
+    ...     with np.load(path, allow_pickle=False) as f:
+    ...         print(os.path.basename(path), f["format"], f["format_version"], f["kind"])
+    roots.npz tps_solver 1 SecularRoots
+    >>> save({"gamma": 1.0}, "roots")
+    Traceback (most recent call last):
+    ...
+    ValueError: result must be one of PeriodicSolution, LatticeCycle, StabilityResult, SimulationResult, SecularRoots, got dict
     """
     kind = type(result).__name__
     if kind not in _ENCODERS:
@@ -600,6 +615,23 @@ def load(path, kind=None):
         If the file cannot be read (truncated, damaged, pickled, not an ``.npz``), is not
         a tps_solver file, has a newer format version (named), lacks or mistypes a field,
         or is inconsistent (e.g. ``e`` does not belong to the stored ``t0``).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from tps_solver import secular_roots
+    >>> roots = secular_roots(1.0, "sinuous", 3)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     back = load(save(roots, os.path.join(d, "roots")), kind="SecularRoots")
+    ...     print(type(back).__name__, np.array_equal(back.gamma, roots.gamma), back.mode)
+    ...     with open(os.path.join(d, "junk.npz"), "w") as f:
+    ...         _ = f.write("not an archive")
+    ...     try:
+    ...         load(os.path.join(d, "junk"))
+    ...     except ValueError as exc:
+    ...         print(str(exc).split(": ", 1)[1])
+    SecularRoots True sinuous
+    it is not an .npz archive (NumPy took it for pickled data)
     """
     if kind is not None and kind not in KINDS:
         raise ValueError(f"kind must be one of {', '.join(KINDS)} or None, got {kind!r}")

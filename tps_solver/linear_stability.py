@@ -543,6 +543,19 @@ class SecularRoots(Bunch):
     polished : ndarray of bool, shape (n_roots,)
         Roots whose double-precision bound exceeded :data:`POLISH_REL` and that were
         re-solved in mpmath (near ``KAPPA_C``, the varicose root ``gamma -> 0``).
+
+    Examples
+    --------
+    The least damped sinuous root at ``kappa = 1`` is real, the next ones are ``i beta``;
+    ``lam = gamma**2 - 1`` holds for each:
+
+    >>> import numpy as np
+    >>> from tps_solver import secular_roots
+    >>> r = secular_roots(1.0, "sinuous", 3)
+    >>> type(r).__name__, r.gamma.round(6)
+    ('SecularRoots', array([0.698614+0.j      , 0.      +2.218843j, 0.      +4.765445j]))
+    >>> bool(np.allclose(r.lam, (r.gamma ** 2 - 1).real)), r.complete
+    (True, True)
     """
 
     def save(self, path):

@@ -85,6 +85,17 @@ class PeriodicOrbit(Bunch):
         The FDA lattice of a lattice solution, ``None`` on the continuum.
     time : float
         Wall time of the solve, seconds.
+
+    Examples
+    --------
+    >>> from tps_solver import LatticeCycle, PeriodicSolution
+    >>> issubclass(PeriodicSolution, PeriodicOrbit) and issubclass(LatticeCycle, PeriodicOrbit)
+    True
+    >>> orb = PeriodicOrbit(converged=True, status=0, message=converged_message(1e-12, 1e-10))
+    >>> STATUS[orb.status], [name for name in dir(orb) if name in ("height", "status", "velocity")]
+    ('converged', ['height', 'status', 'velocity'])
+    >>> PeriodicOrbit.as_times(2.0)
+    array([2.])
     """
 
     def velocity(self, t):

@@ -47,6 +47,21 @@ class PeriodicSolution(PeriodicOrbit):
     min_shift : bool
         True if the paper's min-shift (64)-(65) was applied to zeta.  A solution
         that needs it is not a solution of the contact problem.
+
+    Examples
+    --------
+    A coarse kink: far from the front the layer bounces like the flat layer, launched
+    at ``t0`` on one side and half a period later on the other:
+
+    >>> from tps_solver import solve_kink
+    >>> sol = solve_kink(n_harmonics=6, n_nodes=6)
+    >>> sol.converged, sol.geometry, sol.w_hat.shape, sol.checks.all_pass
+    (True, 'planar', (13, 12), True)
+    >>> bool(np.allclose(sol.tc[[-1, 0]], [sol.flat.t0, sol.flat.t0 + sol.period / 2], atol=1e-6))
+    True
+    >>> t = np.linspace(0.0, sol.period, 5)
+    >>> bool(np.allclose(sol.velocity(t)[:, -1], sol.flat.velocity(t), atol=1e-5))
+    True
     """
 
     def _evaluate(self, coeffs, t, kind):
@@ -109,5 +124,17 @@ def load(path, kind=None):
     what is derived -- the flat layer, the height harmonics (39)-(40), the physical
     checks -- is recomputed, and a damaged, foreign or inconsistent file raises
     ``ValueError`` saying what is wrong with it.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from tps_solver import solve_kink
+    >>> sol = solve_kink(n_harmonics=6, n_nodes=6)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = sol.save(os.path.join(d, "kink"))
+    ...     back = load(os.path.join(d, "kink"))
+    ...     print(os.path.basename(path), type(back).__name__, np.array_equal(back.tc, sol.tc),
+    ...           np.array_equal(back.zeta_hat, sol.zeta_hat), back.checks.all_pass)
+    kink.npz PeriodicSolution True True True
     """
     return io.load(path, kind)
