@@ -132,6 +132,17 @@ class BasinResult(Bunch):
     status : int
         0 all classified; 1 some irregular; 2 some integrations failed.
     message : str
+
+    Examples
+    --------
+    At Gamma = 4.1, e = 0 every sample ends on the flat state, the f/2 orbit with one
+    touch-and-go and one stick per period (:func:`tps_solver.sticking.sticking_orbit`):
+
+    >>> res = flat_basins(4.1, 0.0, M=2, n_samples=4, seed=1, periods=40)
+    >>> type(res).__name__, res.status, res.fractions, res.labels.tolist()
+    ('BasinResult', 0, {'f/2 (1 impact, 1 stick)': 1.0, 'irregular': 0.0}, [0, 0, 0, 0])
+    >>> res.flat_fraction, res.attractors[0].is_flat, res.attractors[0].period
+    (1.0, True, 2)
     """
 
 

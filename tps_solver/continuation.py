@@ -98,6 +98,21 @@ class Branch(Bunch):
     context : dict
         The fixed parameters (Gamma, e, M, ...).
     time : float
+
+    Examples
+    --------
+    The flat layer continued in Gamma from 2.5: it loses stability by a period
+    doubling at the upper end of :meth:`FlatLayer.stability_window`, and every state is the
+    launch phase ``t0`` of that Gamma:
+
+    >>> from tps_solver import FlatLayer
+    >>> br = continue_branch(FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 2.7))
+    >>> br.status, br.problem, [kind for kind, _ in br.special_points], br.stable[[0, -1]].tolist()
+    (0, 'flat', ['period_doubling'], [True, False])
+    >>> bool(abs(br.special_points[0][1] - FlatLayer.stability_window(0.45, 2)[1]) < 1e-8)
+    True
+    >>> bool(abs(br.states[-1, 0] - FlatLayer(br.parameter_values[-1], 2, e=0.45).t0) < 1e-10)
+    True
     """
 
     def save(self, path):
@@ -167,6 +182,16 @@ def load_branch(path):
     ------
     ValueError
         If the file is not a branch file of a known format version.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from tps_solver import FlatLayer
+    >>> br = continue_branch(FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 2.7))
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     back = load_branch(br.save(os.path.join(d, "branch")))
+    ...     print(np.array_equal(back.states, br.states), back.special_points == br.special_points, back.context)
+    True True {'Gamma': 2.5, 'e': 0.45, 'M': 2.0}
     """
     import zipfile
 

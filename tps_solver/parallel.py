@@ -76,6 +76,18 @@ class SweepInterrupted(KeyboardInterrupt):
         True where ``results`` holds a finished point.
     store : pathlib.Path or None
         The store holding every finished point (rerun :func:`sweep` to finish).
+
+    Examples
+    --------
+    >>> def area(width, height):
+    ...     if width > 1.5:
+    ...         raise KeyboardInterrupt             # as if Ctrl-C were pressed here
+    ...     return width * height
+    >>> try:
+    ...     sweep(area, {"width": [1.0, 2.0], "height": [3.0]}, executor="serial", progress=False)
+    ... except SweepInterrupted as exc:
+    ...     print(exc.results, exc.finished.tolist(), exc.store)
+    [3.0, None] [True, False] None
     """
 
     def __init__(self, message, results, finished, store):
@@ -304,6 +316,20 @@ def load_store(store):
     -------
     points : list of (dict, object)
         ``(params, result)`` pairs, sorted by key (not in any sweep's order).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> def area(width, height):
+    ...     return width * height
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     _ = sweep(area, {"width": [2.0], "height": [3.0, 5.0]}, executor="serial", store=d, progress=False)
+    ...     print(sorted(result for _, result in load_store(d)))
+    [6.0, 10.0]
+    >>> load_store(".")
+    Traceback (most recent call last):
+    ...
+    ValueError: store must be a directory written by sweep(), got '.'
     """
     path = Path(store)
     if not (path / _MANIFEST).exists():

@@ -300,6 +300,21 @@ class ContactOrbit:
         Bound on the chatter accumulation-time error (0 if no tail).
     harmonic_tail_bound : float
         Bound on what the unresolved chatter tails add to any :math:`|\hat w_n|`.
+
+    Examples
+    --------
+    The completely inelastic sticking orbit at Gamma = 4.1: lift-off from rest where
+    :math:`g = \sin t - 1/\Gamma` turns positive, then the plate-frame flight (17):
+
+    >>> from tps_solver.flight import flight_height
+    >>> orb, _ = sticking_orbit(4.1, 0.0, 2)
+    >>> type(orb).__name__, orb.pattern, orb.contact_sequence(), orb.t0 == math.asin(1 / 4.1)
+    ('ContactOrbit', 'stick', 'TS', True)
+    >>> t = orb.t0 + np.array([1.0, 3.0])
+    >>> bool(np.allclose(orb.height(t), [flight_height(x, orb.t0, 0.0, 4.1) for x in t], atol=1e-12))
+    True
+    >>> float(orb.velocity(orb.t0)), float(orb.height(orb.t0 + orb.period))
+    (0.0, 0.0)
     """
 
     def __init__(self, pattern, Gamma, e, M, t0, segments, events, multipliers):
