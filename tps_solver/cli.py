@@ -38,7 +38,20 @@ def _command_modules():
 
 
 def build_parser():
-    """Return the argument parser with every discovered subcommand."""
+    """Return the argument parser with every discovered subcommand.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Parsed arguments carry ``command``, the command's options, ``_run`` (its
+        ``run``) and ``_flags`` (parameter name -> flag, for error messages).
+
+    Examples
+    --------
+    >>> args = build_parser().parse_args(["flat", "--gamma", "3.0"])
+    >>> args.command, args.gamma, args.M, args._flags["Gamma"]
+    ('flat', 3.0, 2, '--gamma')
+    """
     parser = argparse.ArgumentParser(
         prog="tps-solver",
         description="Kinks and oscillons of vibrated granular layers (Goddard & Didwania model). "
@@ -100,6 +113,35 @@ def main(argv=None):
     The one place that chooses a matplotlib backend: a non-interactive one
     (``Agg``) unless ``MPLBACKEND`` is already set, so figures are written to
     files on machines with no display.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after ``tps-solver``; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status (0 success, 1 not converged or stopped, 2 bad input).
+
+    Examples
+    --------
+    >>> main(["flat", "--gamma", "2.5", "--e", "0.45"])
+    flat layer: Gamma = 2.5, M = 2, e = 0.45, branch = stable
+      launch phase t0      = 0.3067801514
+    ...
+      |multipliers|        = 0.4500000000, 0.4500000000
+      stable?              = True
+    0
+
+    Bad input is exit status 2 with one line on stderr that names the flag:
+
+    >>> import contextlib, io
+    >>> err = io.StringIO()
+    >>> with contextlib.redirect_stderr(err):
+    ...     status = main(["flat", "--gamma", "-1"])
+    >>> status, err.getvalue().strip()
+    (2, 'tps-solver flat: error: Gamma (--gamma) must be a finite number > 0, got -1.0')
     """
     os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()

@@ -60,6 +60,21 @@ def solution_figures(sol, n_times=160):
     -------
     figures : dict of str -> matplotlib.figure.Figure
         ``"zeta"``, ``"w_minus_W"`` and ``"snapshots"``; the caller saves and closes them.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from tps_solver import solve_kink
+    >>> sol = solve_kink(n_harmonics=6, n_nodes=6)
+    >>> figs = solution_figures(sol, n_times=16)
+    >>> sorted(figs), figs["zeta"].axes[0].get_xlabel()
+    (['snapshots', 'w_minus_W', 'zeta'], '$x$ (viscous lengths)')
+    >>> print(figs["zeta"].axes[0].get_title().splitlines()[0])
+    TPS kink: $\\Gamma$ = 2.5, e = 0.45, M = 2, N = 6, 12 nodes
+    >>> len(figs["snapshots"].axes[0].lines)                  # 8 profiles per period
+    8
+    >>> for fig in figs.values():
+    ...     plt.close(fig)
     """
     plt = _pyplot()
     kind = "kink" if sol.geometry == "planar" else "oscillon"
@@ -142,6 +157,16 @@ def plot_solution(sol, directory, n_times=160, prefix=None):
     paths : list of str
         The PNG files written: ``{prefix}_zeta.png``, ``{prefix}_w_minus_W.png``,
         ``{prefix}_snapshots.png``.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from tps_solver import solve_kink
+    >>> sol = solve_kink(n_harmonics=6, n_nodes=6)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     paths = plot_solution(sol, d, n_times=16)
+    ...     print([os.path.basename(p) for p in paths], all(os.path.getsize(p) > 0 for p in paths))
+    ['kink_zeta.png', 'kink_w_minus_W.png', 'kink_snapshots.png'] True
     """
     plt = _pyplot()
     prefix = prefix or ("kink" if sol.geometry == "planar" else "oscillon")
@@ -168,6 +193,21 @@ def growth_rates_figure(kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_points=12
     Returns
     -------
     matplotlib.figure.Figure
+
+    Examples
+    --------
+    The curves are the damping rates of :func:`~tps_solver.growth_rates`, plus the
+    line :math:`\\nu k^2`:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from tps_solver import growth_rates
+    >>> fig = growth_rates_figure(kh_min=0.5, kh_max=2.0, n_modes=1, n_points=3)
+    >>> ax = fig.axes[0]
+    >>> [line.get_label() for line in ax.lines][:2]
+    ['sinuous mode 1', 'varicose mode 1']
+    >>> bool(np.allclose(ax.lines[0].get_ydata()[1], -growth_rates(1.0, 1.0, "sinuous", 1)[0]))
+    True
+    >>> plt.close(fig)
     """
     plt = _pyplot()
 
@@ -207,6 +247,14 @@ def plot_growth_rates(path, kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_point
     Returns
     -------
     path : str
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = plot_growth_rates(os.path.join(d, "rates.png"), n_modes=1, n_points=5)
+    ...     print(os.path.basename(path), os.path.getsize(path) > 0)
+    rates.png True
     """
     plt = _pyplot()
     fig = growth_rates_figure(kh_min, kh_max, n_modes, nu, n_points)
