@@ -28,7 +28,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from ._checks import check_choice, check_int, check_positive, check_real, check_restitution
-from .harmonics import flat_w_hat
+from .budget import check_cost, harmonics_cost
+from .harmonics import flat_w_hat, height_from_velocity
 from .sticking import sticking_orbit, touch_orbits
 
 __all__ = ["FlatLayer"]
@@ -525,8 +526,10 @@ class FlatLayer:
         w_hat : ndarray of complex, shape (2N+1,)
             Entry ``N + n`` is :math:`\hat W_n`, ``n = -N..N``.
         """
+        N = check_int(N, "N", minimum=1)
+        check_cost("FlatLayer.harmonics", "N", N, *harmonics_cost(N))
         if self._orbit is not None:
-            return self._orbit.harmonics(check_int(N, "N", minimum=1))
+            return self._orbit.harmonics(N)
         return flat_w_hat(N, self.M, self.Gamma, self.t0)
 
     def height_harmonics(self, N):
@@ -539,13 +542,11 @@ class FlatLayer:
             For the sticking and touch-and-go patterns: closed form per flight
             segment, entry ``N`` the period mean.
         """
+        N = check_int(N, "N", minimum=1)
+        check_cost("FlatLayer.height_harmonics", "N", N, *harmonics_cost(N))
         if self._orbit is not None:
-            return self._orbit.harmonics(check_int(N, "N", minimum=1), height=True)
-        w = self.harmonics(N)
-        n = np.arange(-N, N + 1)
-        z = np.zeros_like(w)
-        nz = n != 0
-        z[nz] = w[nz] / (1j * n[nz] / self.M)
+            return self._orbit.harmonics(N, height=True)
+        z = height_from_velocity(self.harmonics(N), self.M)
         z[N] = self.period ** 2 / (12.0 * self.Gamma) + math.sin(self.t0)
         return z
 
