@@ -335,3 +335,14 @@ def test_lattice_cycle_in_blocks_matches_one_block():
     assert whole.converged and blocks.converged
     np.testing.assert_allclose(blocks.tc, whole.tc, rtol=0, atol=1e-13)
     np.testing.assert_allclose(z_blocks, whole.height(t), rtol=0, atol=1e-12)
+
+
+def test_flat_harmonics_refuse_an_out_of_reach_N_before_allocating():
+    import tps_solver as tps
+
+    fl = tps.FlatLayer(2.5, e=0.45)
+    for call in (fl.harmonics, fl.height_harmonics):
+        with pytest.raises(ValueError, match=r"^N = 1000000000 is out of reach.*GB"):
+            call(10 ** 9)
+    # an integral float is an integer
+    assert fl.harmonics(2.0).shape == (5,)
