@@ -96,10 +96,14 @@ def run(args, geometry):
     common = dict(Gamma=args.gamma, M=args.M, e=e, t0=t0, n_harmonics=args.N, n_nodes=args.nodes,
                   tol=args.tol, max_iter=args.max_iter, scheme=args.scheme,
                   continuation=not args.no_continuation, min_shift=args.min_shift)
-    if geometry == "planar":
-        sol = tps.solve_kink(length=args.size, **common)
-    else:
-        sol = tps.solve_oscillon(r_max=args.size, r_core=args.r_core, **common)
+    from ..budget import Progress
+
+    with Progress(f"{'kink' if geometry == 'planar' else 'oscillon'} TPS") as bar:
+        common["callback"] = bar.newton
+        if geometry == "planar":
+            sol = tps.solve_kink(length=args.size, **common)
+        else:
+            sol = tps.solve_oscillon(r_max=args.size, r_core=args.r_core, **common)
     print(summary(sol))
     if npz:
         print(f"  saved to {sol.save(npz)}")
