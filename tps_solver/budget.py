@@ -310,20 +310,25 @@ class Progress:
         self.desc, self.total, self.enabled = desc, float(total), bool(enabled)
         self.bar, self._last_log = None, -1.0
         self._steps = 0
-        if not self.enabled:
+        self._opened = False
+
+    def _open(self):
+        """Create the bar at the first update, so a call that fails at once prints nothing."""
+        if self._opened:
             return
+        self._opened = True
         try:
             from tqdm.auto import tqdm
         except ImportError:
-            tqdm = None
-        if tqdm is not None:
-            self.bar = tqdm(total=100, desc=desc, unit="%", dynamic_ncols=True, leave=False)
+            return
+        self.bar = tqdm(total=100, desc=self.desc, unit="%", dynamic_ncols=True, leave=False)
 
     def newton(self, iteration, tc, residual):
         """Callback of the Newton solvers: one step (or continuation point) done."""
         self._steps += 1
         if not self.enabled:
             return
+        self._open()
         if self.bar is not None:
             self.bar.set_postfix_str(f"step {iteration}, max|F| {residual:.2e}", refresh=True)
         else:
@@ -333,6 +338,7 @@ class Progress:
         """Callback of the FDA (``progress.fraction`` in [0, 1] of the run)."""
         if not self.enabled:
             return
+        self._open()
         frac = float(getattr(progress, "fraction", 0.0))
         if self.bar is not None:
             self.bar.n = int(round(100 * min(1.0, frac)))
