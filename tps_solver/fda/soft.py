@@ -127,6 +127,10 @@ def radau_iia(s):
                 np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]))
 
 
+class _Config:
+    """Constants of one contact configuration (attributes set by ``SoftIntegrator._config``)."""
+
+
 def _lagrange_matrix(nodes, theta):
     """Values at ``theta`` of the Lagrange basis on ``nodes``: shape (len(theta), len(nodes))."""
     nodes = np.asarray(nodes, float)
@@ -258,59 +262,96 @@ class SoftIntegrator(Integrator):
         G = 2 * s + 2
         self._theta = np.arange(1, G + 1) / G
         self._dense = _lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
+        self._vinv = np.linalg.inv(np.vander(self._nodes, increasing=True))              # monomials
         self._order = 2 * s - 1
         self._h = None
         self._event_times = collections.deque()
+        self._forecast = None
 
     # ------------------------------------------------------------ linear algebra
-    def _Lmul(self, u, rows_ok):
-        """:math:`\\underline L' u` for u of shape (..., n); rows of held nodes are zero."""
+    def _Lmul(self, u):
+        """Full :math:`\\underline L u` for u of shape (..., n) (the free acceleration of held nodes)."""
         out = self._Ld * u
         out[..., 1:] += self._Ll * u[..., :-1]
         out[..., :-1] += self._Lu * u[..., 1:]
-        return out * rows_ok
+        return out
 
     def _config(self, mode):
-        """Masks of a contact configuration (mode: 0 free, 1 soft contact, 2 held)."""
+        """Per-configuration constants (mode: 0 free, 1 soft contact, 2 held)."""
         c = (mode == _CONTACT).astype(float)
         f = (mode == _FREE).astype(float)
         rows_ok = (mode != _HELD).astype(float)
-        return c, f, rows_ok
+        n, b, om2 = self.n, self.beta, self.omega0_sq
+        Ld, Ll, Lu = self._Ld * rows_ok, self._Ll * rows_ok[1:], self._Lu * rows_ok[:-1]
+        lam = self._lam[:, None]
+        cfg = _Config()
+        cfg.c, cfg.f, cfg.rows_ok = c, f, rows_ok
+        cfg.Ld, cfg.Ll, cfg.Lu = Ld, Ll, Lu
+        cfg.dw = Ld - 2.0 * b * c              # diagonal of the w-row of A acting on w
+        cfg.dz = -om2 * c                      # ... acting on zeta
+        # stacked block-tridiagonal stage matrix 1 + h P1 + h^2 P2 (blocks separated by zeros)
+        cfg.P1 = (lam * (2.0 * b * c - Ld)[None, :]).ravel()
+        cfg.P2 = (lam * lam * (om2 * c)[None, :]).ravel()
+        QL = np.zeros((lam.size, n), complex)
+        QU = np.zeros((lam.size, n), complex)
+        QL[:, :-1] = -lam * Ll[None, :]
+        QU[:, :-1] = -lam * Lu[None, :]
+        cfg.QLf, cfg.QUf = QL.ravel(), QU.ravel()           # with the trailing separator
+        cfg.QL, cfg.QU = cfg.QLf[:-1], cfg.QUf[:-1]
+        cfg.om2c = om2 * c
+        return cfg
 
     def _rhs(self, t, w, z, cfg):
-        c, f, rows_ok = cfg
-        dw = self._Lmul(w, rows_ok) - 2.0 * self.beta * c * w - self.omega0_sq * c * z \
-            + (math.sin(t) - 1.0 / self.Gamma) * f
-        return dw, w * rows_ok
+        dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
+        dw[1:] += cfg.Ll * w[:-1]
+        dw[:-1] += cfg.Lu * w[1:]
+        return dw, w * cfg.rows_ok
 
     def _step(self, t0, h, w0, z0, cfg):
         """One Radau IIA step; returns (w1, z1, Yw, Yz) with stage values of shape (s, n)."""
-        self.n_steps += 1
-        c, f, rows_ok = cfg
-        n, b, om2 = self.n, self.beta, self.omega0_sq
-        aw = self._Lmul(w0, rows_ok) - 2.0 * b * c * w0 - om2 * c * z0
-        g = np.sin(t0 + self._c * h) - 1.0 / self.Gamma
-        ghat = self._Tinv_rep @ g                                     # (m,)
-        mu = h * self._lam                                            # (m,)
-        m = mu.size
-        rw = mu[:, None] * (self._q[:, None] * aw[None, :] + ghat[:, None] * f[None, :])
-        rz = mu[:, None] * self._q[:, None] * w0[None, :]
-        rhs = rw - om2 * mu[:, None] * c[None, :] * rz
-        diag = 1.0 - mu[:, None] * (self._Ld * rows_ok)[None, :] \
-            + c[None, :] * (2.0 * b * mu + om2 * mu * mu)[:, None]
-        dl = np.zeros((m, n), complex)
-        du = np.zeros((m, n), complex)
-        dl[:, :-1] = -mu[:, None] * (self._Ll * rows_ok[1:])[None, :]
-        du[:, :-1] = -mu[:, None] * (self._Lu * rows_ok[:-1])[None, :]
-        _, _, _, x, info = lapack.zgtsv(dl.ravel()[:-1], diag.ravel(), du.ravel()[:-1],
-                                        rhs.reshape(-1, 1), 1, 1, 1, 1)
+        return self._steps(t0, (h,), w0, z0, cfg)[0]
+
+    def _steps(self, t0, hs, w0, z0, cfg):
+        """Radau IIA steps of sizes ``hs`` (1 or 2 of them) from the same start, in one ``zgtsv`` call.
+
+        Returns a list of (w1, z1, Yw, Yz), stage values of shape (s, n).
+        """
+        k = len(hs)
+        self.n_steps += k
+        n = self.n
+        aw = cfg.dw * w0 + cfg.dz * z0
+        aw[1:] += cfg.Ll * w0[:-1]
+        aw[:-1] += cfg.Lu * w0[1:]
+        hv = np.array(hs, float)
+        g = np.sin(t0 + np.multiply.outer(hv, self._c)) - 1.0 / self.Gamma      # (k, s)
+        mu = np.multiply.outer(hv, self._lam).ravel()                             # (k m,)
+        muq = mu * np.tile(self._q, k)
+        ghat = (g @ self._Tinv_rep.T).ravel()                                     # (k m,)
+        rhs = muq[:, None] * aw + (mu * ghat)[:, None] * cfg.f - (mu * muq)[:, None] * (cfg.om2c * w0)
+        if k == 1:
+            h = hs[0]
+            diag = 1.0 + h * cfg.P1 + (h * h) * cfg.P2
+            dl, du = h * cfg.QL, h * cfg.QU
+        else:
+            hr = np.repeat(hv, cfg.P1.size)
+            diag = 1.0 + hr * np.tile(cfg.P1, k) + (hr * hr) * np.tile(cfg.P2, k)
+            hr = hr[:-1]
+            dl, du = hr * np.tile(cfg.QLf, k)[:-1], hr * np.tile(cfg.QUf, k)[:-1]
+        _, _, _, x, info = lapack.zgtsv(dl, diag, du, rhs.reshape(-1, 1), 1, 1, 1, 1)
         if info != 0:
-            raise RuntimeError(f"soft integrator: singular stage system at t = {t0:.15g} (h = {h:.3g})")
-        Zw = x.reshape(m, n)
-        Zz = rz + mu[:, None] * Zw
-        Yw = w0[None, :] + (self._Trep @ Zw).real
-        Yz = z0[None, :] + (self._Trep @ Zz).real
-        return Yw[-1].copy(), Yz[-1].copy(), Yw, Yz
+            raise RuntimeError(f"soft integrator: singular stage system at t = {t0:.15g} (h = {hs})")
+        Zw = x.reshape(-1, n)
+        Z = np.empty((Zw.shape[0], 2 * n), complex)
+        Z[:, :n] = Zw
+        Z[:, n:] = muq[:, None] * w0 + mu[:, None] * Zw
+        m = self._lam.size
+        out = []
+        for i in range(k):
+            Y = (self._Trep @ Z[i * m:(i + 1) * m]).real
+            Y[:, :n] += w0
+            Y[:, n:] += z0
+            out.append((Y[-1, :n].copy(), Y[-1, n:].copy(), Y[:, :n], Y[:, n:]))
+        return out
 
     # --------------------------------------------------------------- violations
     def _violation(self, t, w, z, mode, cfg, with_rate=True):
@@ -320,11 +361,11 @@ class SoftIntegrator(Integrator):
         if with_rate:
             dv = np.where(mode == _FREE, -w, w)
         if held.any():
-            a = self._Lmul(w, 1.0) + (math.sin(t) - 1.0 / self.Gamma)
+            a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
             v = np.where(held, a, v)
             if with_rate:
                 dw, _ = self._rhs(t, w, z, cfg)
-                da = self._Lmul(dw, 1.0) + math.cos(t)
+                da = self._Lmul(dw) + math.cos(t)
                 dv = np.where(held, da, dv)
         return (v, dv) if with_rate else v
 
@@ -337,7 +378,7 @@ class SoftIntegrator(Integrator):
         held = mode == _HELD
         if held.any():
             Wg = P @ np.vstack((w0[None, :], Yw))
-            a = self._Lmul(Wg, 1.0) + (np.sin(tg) - 1.0 / self.Gamma)[:, None]
+            a = self._Lmul(Wg) + (np.sin(tg) - 1.0 / self.Gamma)[:, None]
             v = np.where(held[None, :], a, v)
         return tg, v
 
@@ -351,8 +392,10 @@ class SoftIntegrator(Integrator):
     def _consistency(self, t, w, z, mode, events):
         """Switch nodes whose configuration contradicts the state at t (e.g. an initial state)."""
         free, cont = mode == _FREE, mode == _CONTACT
-        enter = np.flatnonzero(free & (z < 0.0) & ((w < 0.0) | (z < -self.time_tol)))
-        leave = np.flatnonzero(cont & (z > 0.0) & ((w > 0.0) | (z > self.time_tol)))
+        # nodes switched within the simultaneity window sit up to time_tol * |w| on the wrong side
+        zt = 2.0 * self.time_tol * np.abs(w)
+        enter = np.flatnonzero(free & (z < 0.0) & ((w < 0.0) | (z < -zt)))
+        leave = np.flatnonzero(cont & (z > 0.0) & ((w > 0.0) | (z > zt)))
         held = mode == _HELD
         if enter.size or leave.size:
             self._switch(t, w, z, mode, enter, leave, np.empty(0, int), events)
@@ -369,8 +412,7 @@ class SoftIntegrator(Integrator):
         a = None
         if vs > 0.0 and (enter.size or leave.size):
             held = mode == _HELD
-            a = self._Lmul(w, 1.0) + (math.sin(t) - 1.0 / self.Gamma)
-            del held
+            a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
         for j in enter:
             wb = float(w[j])
             if a is not None and abs(wb) <= vs and a[j] <= 0.0:
@@ -447,11 +489,20 @@ class SoftIntegrator(Integrator):
         k_eval = int(np.searchsorted(t_eval, t, side="right"))
         samples = []
         cfg = self._config(mode)
+        fc, self._forecast = self._forecast, None
+        if fc is not None and not (fc["t"] == t and np.array_equal(fc["w"], w) and np.array_equal(fc["z"], z)):
+            fc = None
         if self._h is None:
             self._h = min(self.max_step, 0.1 * self.tau_c)
         order = self._order
         while True:
             t_target = t_stop if k_eval >= t_eval.size else min(t_stop, t_eval[k_eval])
+            if fc is not None:
+                # the previous trial step predicted more crossings: go straight to the next one
+                found = self._from_forecast(t, w, z, mode, cfg, fc, t_target)
+                fc = None
+                if found is not None:
+                    return self._finish(t, w, z, mode, cfg, *found, t_eval, k_eval, samples, events)
             h = min(self._h, self.max_step, t_target - t)
             last = h >= t_target - t
             # step ends are floats and steps are their exact differences (no drift of t)
@@ -460,8 +511,7 @@ class SoftIntegrator(Integrator):
             t_mid = t + 0.5 * h
             hh, h2 = t_mid - t, t_new - t_mid
             # trial step and two half steps (error estimate)
-            w1, z1, _, _ = self._step(t, h, w, z, cfg)
-            wa, za, Ywa, Yza = self._step(t, hh, w, z, cfg)
+            (w1, z1, _, _), (wa, za, Ywa, Yza) = self._steps(t, (h, hh), w, z, cfg)
             wb, zb, Ywb, Yzb = self._step(t_mid, h2, wa, za, cfg)
             scale = self.atol + self.rtol * np.maximum(np.abs(np.concatenate((w, z))),
                                                        np.abs(np.concatenate((wb, zb))))
@@ -481,47 +531,31 @@ class SoftIntegrator(Integrator):
             v0 = np.minimum(self._violation(t, w, z, mode, cfg, with_rate=False), 0.0)
             tga, va = self._grid_violation(t, hh, w, z, Ywa, Yza, mode)
             tgb, vb = self._grid_violation(t_mid, h2, wa, za, Ywb, Yzb, mode)
-            tg = np.concatenate((tga[:-1], [t_mid], tgb[:-1], [t_new]))
+            tg = np.concatenate(([t], tga[:-1], [t_mid], tgb[:-1], [t_new]))
             vg = np.vstack((v0[None, :], va[:-1], self._violation(t_mid, wa, za, mode, cfg, False)[None, :],
                             vb[:-1], self._violation(t_new, wb, zb, mode, cfg, False)[None, :]))
-            tg = np.concatenate(([t], tg))
             pos = vg > 0.0
             hit = pos.any(axis=0)
             if hit.any():
-                first = np.argmax(pos, axis=0)
                 nodes = np.flatnonzero(hit)
-                kmin = first[nodes].min()
-                cand = nodes[first[nodes] == kmin]
-                lo, hi = vg[kmin - 1, cand], vg[kmin, cand]
-                guess = tg[kmin - 1] + (tg[kmin] - tg[kmin - 1]) * (-lo) / (hi - lo)
-                j = int(cand[np.argmin(guess)])
-                h_guess, h_hi = float(guess.min()) - t, float(tg[kmin]) - t
-                for _ in range(4 * self.n + 4):
-                    he, we, ze = self._locate(t, w, z, mode, cfg, j, h_guess, h_hi)
-                    ev, early, dt_early = self._simultaneous(t + he, we, ze, mode, cfg, j)
-                    if early < 0:
-                        break
-                    j, h_hi, h_guess = early, he, he - dt_early
-                else:
-                    raise RuntimeError(f"soft integrator: switch search stalled after t = {t:.15g}; "
-                                       "try a smaller max_step")
-                # the switch happens at the real time t + he; report the float te = fl(t + he) and
-                # move the post-switch state along the post-switch flow by te - (t + he) (|.| <= ulp)
-                te = t + he
-                delta = -((t - (te - (te - t))) + (he - (te - t)))     # te - (t + he), exact (TwoSum)
-                if k_eval < t_eval.size and t_eval[k_eval] <= te:
-                    samples.append((float(t_eval[k_eval]), we.copy(), ze.copy()))
-                    k_eval += 1
-                enter = ev[mode[ev] == _FREE]
-                leave = ev[mode[ev] == _CONTACT]
-                release = ev[mode[ev] == _HELD]
-                self._switch(te, we, ze, mode, enter, leave, release, events)
-                if delta != 0.0:
-                    cfg = self._config(mode)
-                    dw, dz = self._rhs(t + he, we, ze, cfg)
-                    we, ze = we + delta * dw, ze + delta * dz
-                self._count_events(te, len(events))
-                return Step(t=te, w=we, zeta=ze, samples=samples, events=events, stuck=mode != _FREE)
+                k = np.argmax(pos[:, nodes], axis=0)                   # first grid index past a crossing
+                lo, hi = vg[k - 1, nodes], vg[k, nodes]
+                guess = tg[k - 1] + (tg[k] - tg[k - 1]) * (-lo) / (hi - lo)
+                # v(t) may be 0 (a node that has just switched, moving away): search from the upper point
+                guess = np.where(k == 1, tg[k], guess)
+                G = self._theta.size
+                for half, (ts_, hs_, z_, Yz_) in enumerate(((t, hh, z, Yza), (t_mid, h2, za, Yzb))):
+                    sel = ((k <= G) if half == 0 else (k > G)) & (mode[nodes] != _HELD)
+                    if sel.any():                            # polish on the collocation polynomial
+                        idx = nodes[sel]
+                        guess[sel] = ts_ + hs_ * self._poly_roots(
+                            np.vstack((z_[idx][None, :], Yz_[:, idx])), (tg[k[sel] - 1] - ts_) / hs_,
+                            (tg[k[sel]] - ts_) / hs_, (guess[sel] - ts_) / hs_)
+                i = int(np.argmin(guess))
+                j = int(nodes[i])
+                he, we, ze = self._locate(t, w, z, mode, cfg, j, float(guess[i]) - t, float(tg[k[i]]) - t)
+                fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": t_new}
+                return self._finish(t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events)
             # accept the two half steps (the more accurate value)
             t, w, z = t_new, wb, zb
             if k_eval < t_eval.size and t_eval[k_eval] == t:
@@ -530,8 +564,57 @@ class SoftIntegrator(Integrator):
             if t >= t_stop:
                 return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
 
+    def _from_forecast(self, t, w, z, mode, cfg, fc, t_target):
+        """Locate the next predicted crossing without a trial step; None if the prediction fails."""
+        ok = (fc["mode"] == mode[fc["nodes"]]) & (fc["guess"] < fc["t_limit"])
+        if not ok.any():
+            return None
+        nodes, guess = fc["nodes"][ok], fc["guess"][ok]
+        h_max = min(fc["t_limit"], t_target) - t
+        i = int(np.argmin(guess))
+        if guess[i] - t > h_max or h_max <= 0.0:
+            return None
+        j = int(nodes[i])
+        res = self._locate(t, w, z, mode, cfg, j, max(float(guess[i]) - t, 0.0), h_max, verified=False)
+        if res is None:
+            return None
+        he, we, ze = res
+        fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": fc["t_limit"]}
+        return j, he, we, ze, fc
+
+    def _finish(self, t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events):
+        """Complete a switch located at t + he (node j): simultaneous nodes, sticking rule, Step."""
+        for _ in range(4 * self.n + 4):
+            ev, early, dt_early = self._simultaneous(t + he, we, ze, mode, cfg, j)
+            if early < 0:
+                break
+            j = early
+            he, we, ze = self._locate(t, w, z, mode, cfg, j, he - dt_early, he)
+        else:
+            raise RuntimeError(f"soft integrator: switch search stalled after t = {t:.15g}; "
+                               "try a smaller max_step")
+        # the switch happens at the real time t + he; report the float te = fl(t + he) and
+        # move the post-switch state along the post-switch flow by te - (t + he) (|.| <= ulp)
+        te = t + he
+        delta = -((t - (te - (te - t))) + (he - (te - t)))     # te - (t + he), exact (TwoSum)
+        if k_eval < t_eval.size and t_eval[k_eval] <= te:
+            samples.append((float(t_eval[k_eval]), we.copy(), ze.copy()))
+        enter = ev[mode[ev] == _FREE]
+        leave = ev[mode[ev] == _CONTACT]
+        release = ev[mode[ev] == _HELD]
+        self._switch(te, we, ze, mode, enter, leave, release, events)
+        if delta != 0.0:
+            dw, dz = self._rhs(t + he, we, ze, self._config(mode))
+            we, ze = we + delta * dw, ze + delta * dz
+        self._count_events(te, len(events))
+        keep = ~np.isin(fc["nodes"], ev)
+        if keep.any():
+            self._forecast = {"t": te, "w": we, "z": ze, "nodes": fc["nodes"][keep],
+                              "guess": fc["guess"][keep], "mode": fc["mode"][keep], "t_limit": fc["t_limit"]}
+        return Step(t=te, w=we, zeta=ze, samples=samples, events=events, stuck=mode != _FREE)
+
     # ------------------------------------------------------------ event location
-    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi):
+    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi, verified=True):
         """Safeguarded Newton in the step size h for the crossing of node j in (0, h_hi].
 
         Every evaluation is a full collocation step from ``t0``; h is kept relative to ``t0``, so the
@@ -540,7 +623,9 @@ class SoftIntegrator(Integrator):
         lo, hi = 0.0, h_hi
         hk = min(max(guess, 0.0), h_hi)
         best = None
-        for _ in range(60):
+        for it in range(60):
+            if not verified and it >= 6:
+                return None
             if hk <= 0.0:
                 hk = 0.5 * hi
             we, ze, _, _ = self._step(t0, hk, w0, z0, cfg)
@@ -548,20 +633,42 @@ class SoftIntegrator(Integrator):
             vj, dvj = float(v[j]), float(dv[j])
             if vj > 0.0:
                 hi = hk
+                verified = True
             else:
                 lo = hk
             corr = -vj / dvj if dvj > 0.0 else math.inf
             if best is None or abs(corr) < best[0]:
                 best = (abs(corr), hk, we, ze)
-            tol = max(1e-3 * self.time_tol * 1e-1, 4.0 * math.ulp(hk))
-            if abs(corr) <= tol or hi - lo <= tol:
-                return best[1], best[2], best[3]
+            if abs(corr) <= 1e-10:
+                # Newton has converged quadratically: the root is hk + corr to O(corr^2); move the
+                # state there along the (pre-switch) flow, an O(corr^2) error
+                dw, dz = self._rhs(t0 + hk, we, ze, cfg)
+                return hk + corr, we + corr * dw, ze + corr * dz
+            if hi - lo <= 4.0 * math.ulp(hk):
+                return (best[1], best[2], best[3]) if verified else None
             hn = hk + corr
             if not (lo < hn < hi) or not math.isfinite(hn):
                 hn = 0.5 * (lo + hi)
             hk = hn
         raise RuntimeError(f"soft integrator: switch search of node {j} stalled near t = {t0 + hk:.15g} "
                            f"(bracket width {hi - lo:.3g}); try a smaller max_step or time_tol")
+
+    def _poly_roots(self, vals, lo, hi, guess):
+        """Roots in [lo, hi] of the collocation polynomials with values ``vals`` (s+1, k) at (0, c)."""
+        coef = self._vinv @ vals                          # ascending monomial coefficients, (s+1, k)
+        x = np.clip(guess, lo, hi)
+        deg = coef.shape[0] - 1
+        for _ in range(5):
+            p = coef[deg] * np.ones_like(x)
+            dp = np.zeros_like(x)
+            for m in range(deg - 1, -1, -1):
+                dp = dp * x + p
+                p = p * x + coef[m]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xn = x - p / dp
+            good = np.isfinite(xn) & (xn >= lo) & (xn <= hi)
+            x = np.where(good, xn, x)
+        return x
 
     def _simultaneous(self, te, we, ze, mode, cfg, j):
         """Nodes switching at te: j and every node whose crossing lies within time_tol of te.
