@@ -97,10 +97,10 @@ def test_micro_chatter_ends_in_sticking():
     """Slow landing: the bounce speed falls by e per contact until it is below stick_speed."""
     lat = tps.Lattice.planar(n_nodes=3, length=2.0)
     integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL, stick_speed=1e-6)
-    t, w, z = -1.3, np.full(3, -1e-3), np.full(3, 1e-6)
+    t, w, z, stuck = -1.3, np.full(3, -1e-3), np.full(3, 1e-6), None
     kinds, speeds = [], []
     while not kinds or kinds[-1] != "stick":
-        s = integ.advance(t, w, z, None if t == -1.3 else stuck, 0.0)
+        s = integ.advance(t, w, z, stuck, 0.0)
         assert s.t < 0.0
         t, w, z, stuck = s.t, s.w, s.zeta, s.stuck
         kinds += [ev[2] for ev in s.events[:1]]

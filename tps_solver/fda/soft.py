@@ -160,7 +160,7 @@ class SoftIntegrator(Integrator):
     stages : int
         Radau IIA stages ``s`` in 1..9 (order ``2s - 1``); default 5.
     stick_speed : float
-        Capture speed of the sticking rule, >= 0 (default 1e-8; 0 disables capture).
+        Capture speed of the sticking rule, >= 0 (default 1e-4; 0 disables capture).
     time_tol : float
         Simultaneity window of switches, > 0 (default 1e-12); switch times are
         located to ``time_tol / 100``.
@@ -193,7 +193,7 @@ class SoftIntegrator(Integrator):
 
     name = "soft"
     impulsive = False
-    OPTIONS = {"cutoff": None, "rtol": 1e-12, "atol": 1e-12, "stages": 5, "stick_speed": 1e-8,
+    OPTIONS = {"cutoff": None, "rtol": 1e-12, "atol": 1e-12, "stages": 5, "stick_speed": 1e-4,
                "time_tol": 1e-12, "max_step": None, "max_events": 200}
 
     def __init__(self, lattice, Gamma, e, **options):
@@ -225,7 +225,7 @@ class SoftIntegrator(Integrator):
         self.n_rejected = 0
 
         L = np.asarray(lattice.operator, float)
-        n = self.n = L.shape[0]
+        self.n = L.shape[0]
         off = L - np.diag(np.diag(L)) - np.diag(np.diag(L, 1), 1) - np.diag(np.diag(L, -1), -1)
         if np.any(off != 0.0):
             raise ValueError("lattice.operator must be tridiagonal for method='soft'")
@@ -259,14 +259,16 @@ class SoftIntegrator(Integrator):
         self._Tinv_rep = Tinv[[k for k, _ in reps]]                                       # (m, s)
         self._q = self._Tinv_rep.sum(axis=1)                                              # T^-1 1
         self._nodes = np.concatenate(([0.0], c))
-        G = 2 * s + 2
+        G = s + 2
         self._theta = np.arange(1, G + 1) / G
         self._dense = _lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
         self._vinv = np.linalg.inv(np.vander(self._nodes, increasing=True))              # monomials
         self._order = 2 * s - 1
         self._h = None
         self._event_times = collections.deque()
+        self._event_counts = np.zeros(self.n, np.int64)
         self._forecast = None
+        self._cfg_cache = {}
 
     # ------------------------------------------------------------ linear algebra
     def _Lmul(self, u):
@@ -277,7 +279,16 @@ class SoftIntegrator(Integrator):
         return out
 
     def _config(self, mode):
-        """Per-configuration constants (mode: 0 free, 1 soft contact, 2 held)."""
+        """Per-configuration constants (mode: 0 free, 1 soft contact, 2 held), cached."""
+        key = mode.tobytes()
+        cfg = self._cfg_cache.get(key)
+        if cfg is None:
+            if len(self._cfg_cache) > 8:
+                self._cfg_cache.clear()
+            cfg = self._cfg_cache[key] = self._make_config(mode)
+        return cfg
+
+    def _make_config(self, mode):
         c = (mode == _CONTACT).astype(float)
         f = (mode == _FREE).astype(float)
         rows_ok = (mode != _HELD).astype(float)
@@ -298,6 +309,9 @@ class SoftIntegrator(Integrator):
         QU[:, :-1] = -lam * Lu[None, :]
         cfg.QLf, cfg.QUf = QL.ravel(), QU.ravel()           # with the trailing separator
         cfg.QL, cfg.QU = cfg.QLf[:-1], cfg.QUf[:-1]
+        cfg.P012 = np.vstack((np.ones_like(cfg.P1), cfg.P1, cfg.P2))
+        cfg.P1_2, cfg.P2_2 = np.tile(cfg.P1, 2), np.tile(cfg.P2, 2)
+        cfg.QL_2, cfg.QU_2 = np.tile(cfg.QLf, 2)[:-1], np.tile(cfg.QUf, 2)[:-1]
         cfg.om2c = om2 * c
         return cfg
 
@@ -318,7 +332,7 @@ class SoftIntegrator(Integrator):
         """
         k = len(hs)
         self.n_steps += k
-        n = self.n
+        n, m, s = self.n, self._lam.size, self.stages
         aw = cfg.dw * w0 + cfg.dz * z0
         aw[1:] += cfg.Ll * w0[:-1]
         aw[:-1] += cfg.Lu * w0[1:]
@@ -327,30 +341,31 @@ class SoftIntegrator(Integrator):
         mu = np.multiply.outer(hv, self._lam).ravel()                             # (k m,)
         muq = mu * np.tile(self._q, k)
         ghat = (g @ self._Tinv_rep.T).ravel()                                     # (k m,)
-        rhs = muq[:, None] * aw + (mu * ghat)[:, None] * cfg.f - (mu * muq)[:, None] * (cfg.om2c * w0)
+        # right-hand sides (k m, n) = K @ [aw; f; om2 c w0] in one product
+        K = np.stack((muq, mu * ghat, -mu * muq), axis=1)
+        R = np.vstack((aw, cfg.f, cfg.om2c * w0))
+        rhs = K.real @ R + 1j * (K.imag @ R)
         if k == 1:
             h = hs[0]
-            diag = 1.0 + h * cfg.P1 + (h * h) * cfg.P2
+            diag = np.array([1.0, h, h * h]) @ cfg.P012
             dl, du = h * cfg.QL, h * cfg.QU
         else:
             hr = np.repeat(hv, cfg.P1.size)
-            diag = 1.0 + hr * np.tile(cfg.P1, k) + (hr * hr) * np.tile(cfg.P2, k)
+            diag = 1.0 + hr * cfg.P1_2 + (hr * hr) * cfg.P2_2
             hr = hr[:-1]
-            dl, du = hr * np.tile(cfg.QLf, k)[:-1], hr * np.tile(cfg.QUf, k)[:-1]
+            dl, du = hr * cfg.QL_2, hr * cfg.QU_2
         _, _, _, x, info = lapack.zgtsv(dl, diag, du, rhs.reshape(-1, 1), 1, 1, 1, 1)
         if info != 0:
             raise RuntimeError(f"soft integrator: singular stage system at t = {t0:.15g} (h = {hs})")
         Zw = x.reshape(-1, n)
-        Z = np.empty((Zw.shape[0], 2 * n), complex)
-        Z[:, :n] = Zw
-        Z[:, n:] = muq[:, None] * w0 + mu[:, None] * Zw
-        m = self._lam.size
         out = []
+        Tr = self._Trep
         for i in range(k):
-            Y = (self._Trep @ Z[i * m:(i + 1) * m]).real
-            Y[:, :n] += w0
-            Y[:, n:] += z0
-            out.append((Y[-1, :n].copy(), Y[-1, n:].copy(), Y[:, :n], Y[:, n:]))
+            mui, muqi = mu[i * m:(i + 1) * m], muq[i * m:(i + 1) * m]
+            Rr = (np.vstack((Tr, Tr * mui)) @ Zw[i * m:(i + 1) * m]).real       # (2 s, n)
+            Yw = Rr[:s] + w0
+            Yz = Rr[s:] + z0 + np.multiply.outer((Tr @ muqi).real, w0)
+            out.append((Yw[-1].copy(), Yz[-1].copy(), Yw, Yz))
         return out
 
     # --------------------------------------------------------------- violations
@@ -411,7 +426,6 @@ class SoftIntegrator(Integrator):
         vs = self.stick_speed
         a = None
         if vs > 0.0 and (enter.size or leave.size):
-            held = mode == _HELD
             a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
         for j in enter:
             wb = float(w[j])
@@ -436,17 +450,20 @@ class SoftIntegrator(Integrator):
             w[j] = z[j] = 0.0
             events.append((t, int(j), "liftoff", 0.0))
 
-    def _count_events(self, t, k):
-        dq = self._event_times
-        for _ in range(k):
-            dq.append(t)
-        while dq and dq[0] < t - 2.0 * math.pi:
-            dq.popleft()
-        if len(dq) > self.max_events * self.n:
+    def _count_events(self, t, nodes):
+        """Per-node event bound within one forcing period 2 pi (RuntimeError beyond it)."""
+        dq, counts = self._event_times, self._event_counts
+        for j in nodes:
+            dq.append((t, j))
+            counts[j] += 1
+        while dq and dq[0][0] < t - 2.0 * math.pi:
+            counts[dq.popleft()[1]] -= 1
+        worst = int(np.argmax(counts))
+        if counts[worst] > self.max_events:
             raise RuntimeError(
-                f"soft integrator: more than max_events * n_nodes = {self.max_events * self.n} events "
+                f"soft integrator: node {worst} had more than max_events = {self.max_events} events "
                 f"within one forcing period 2*pi before t = {t:.15g} (chattering); raise stick_speed "
-                f"(now {self.stick_speed:g}) or max_events (now {self.max_events})")
+                f"(now {self.stick_speed:g}) or max_events")
 
     def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
         """Propagate from ``t`` to the next switch or to ``t_stop`` (see :meth:`Integrator.advance`).
@@ -483,7 +500,7 @@ class SoftIntegrator(Integrator):
         events = []
         self._consistency(t, w, z, mode, events)
         if events:
-            self._count_events(t, len(events))
+            self._count_events(t, [ev[1] for ev in events])
             return Step(t=t, w=w, zeta=z, events=events, stuck=mode != _FREE)
         t_eval = np.asarray(t_eval, float).ravel()
         k_eval = int(np.searchsorted(t_eval, t, side="right"))
@@ -606,7 +623,7 @@ class SoftIntegrator(Integrator):
         if delta != 0.0:
             dw, dz = self._rhs(t + he, we, ze, self._config(mode))
             we, ze = we + delta * dw, ze + delta * dz
-        self._count_events(te, len(events))
+        self._count_events(te, [ev[1] for ev in events])
         keep = ~np.isin(fc["nodes"], ev)
         if keep.any():
             self._forecast = {"t": te, "w": we, "z": ze, "nodes": fc["nodes"][keep],
