@@ -289,6 +289,7 @@ class SoftIntegrator(Integrator):
         self._Trep = np.array([T[:, k] * (2.0 if pair else 1.0) for k, pair in reps]).T  # (s, m)
         self._Tinv_rep = Tinv[[k for k, _ in reps]]                                       # (m, s)
         self._q = self._Tinv_rep.sum(axis=1)                                              # T^-1 1
+        self._q2 = np.tile(self._q, 2)
         self._nodes = np.concatenate(([0.0], c))
         G = s + 2
         self._theta = np.arange(1, G + 1) / G
@@ -356,10 +357,11 @@ class SoftIntegrator(Integrator):
         """One Radau IIA step; returns (w1, z1, Yw, Yz) with stage values of shape (s, n)."""
         return self._steps(t0, (h,), w0, z0, cfg)[0]
 
-    def _steps(self, t0, hs, w0, z0, cfg):
+    def _steps(self, t0, hs, w0, z0, cfg, stages=None):
         """Radau IIA steps of sizes ``hs`` (1 or 2 of them) from the same start, in one ``zgtsv`` call.
 
-        Returns a list of (w1, z1, Yw, Yz), stage values of shape (s, n).
+        Returns a list of (w1, z1, Yw, Yz), stage values of shape (s, n); ``stages[i]`` False
+        skips the stage values of step i (then ``Yw = Yz = None``).
         """
         k = len(hs)
         self.n_steps += k
@@ -370,7 +372,7 @@ class SoftIntegrator(Integrator):
         hv = np.array(hs, float)
         g = np.sin(t0 + np.multiply.outer(hv, self._c)) - 1.0 / self.Gamma      # (k, s)
         mu = np.multiply.outer(hv, self._lam).ravel()                             # (k m,)
-        muq = mu * np.tile(self._q, k)
+        muq = mu * (self._q if k == 1 else self._q2)
         ghat = (g @ self._Tinv_rep.T).ravel()                                     # (k m,)
         # right-hand sides (k m, n) = K @ [aw; f; om2 c w0] in one product
         K = np.stack((muq, mu * ghat, -mu * muq), axis=1)
@@ -393,6 +395,11 @@ class SoftIntegrator(Integrator):
         Tr = self._Trep
         for i in range(k):
             mui, muqi = mu[i * m:(i + 1) * m], muq[i * m:(i + 1) * m]
+            if stages is not None and not stages[i]:                 # the end point only
+                Te = Tr[-1]
+                Rr = (np.vstack((Te, Te * mui)) @ Zw[i * m:(i + 1) * m]).real  # (2, n)
+                out.append((Rr[0] + w0, Rr[1] + z0 + (Te @ muqi).real * w0, None, None))
+                continue
             Rr = (np.vstack((Tr, Tr * mui)) @ Zw[i * m:(i + 1) * m]).real       # (2 s, n)
             Yw = Rr[:s] + w0
             Yz = Rr[s:] + z0 + np.multiply.outer((Tr @ muqi).real, w0)
@@ -559,7 +566,7 @@ class SoftIntegrator(Integrator):
             t_mid = t + 0.5 * h
             hh, h2 = t_mid - t, t_new - t_mid
             # trial step and two half steps (error estimate)
-            (w1, z1, _, _), (wa, za, Ywa, Yza) = self._steps(t, (h, hh), w, z, cfg)
+            (w1, z1, _, _), (wa, za, Ywa, Yza) = self._steps(t, (h, hh), w, z, cfg, (False, True))
             wb, zb, Ywb, Yzb = self._step(t_mid, h2, wa, za, cfg)
             scale = self.atol + self.rtol * np.maximum(np.abs(np.concatenate((w, z))),
                                                        np.abs(np.concatenate((wb, zb))))
@@ -655,7 +662,9 @@ class SoftIntegrator(Integrator):
             dw, dz = self._rhs(t + he, we, ze, self._config(mode))
             we, ze = we + delta * dw, ze + delta * dz
         self._count_events(te, [ev[1] for ev in events])
-        keep = ~np.isin(fc["nodes"], ev)
+        switched = np.zeros(self.n, bool)
+        switched[ev] = True
+        keep = ~switched[fc["nodes"]]
         if keep.any():
             self._forecast = {"t": te, "w": we, "z": ze, "nodes": fc["nodes"][keep],
                               "guess": fc["guess"][keep], "mode": fc["mode"][keep], "t_limit": fc["t_limit"]}
@@ -676,7 +685,7 @@ class SoftIntegrator(Integrator):
                 return None
             if hk <= 0.0:
                 hk = 0.5 * hi
-            we, ze, _, _ = self._step(t0, hk, w0, z0, cfg)
+            we, ze, _, _ = self._steps(t0, (hk,), w0, z0, cfg, (False,))[0]
             v, dv = self._violation(t0 + hk, we, ze, mode, cfg)
             vj, dvj = float(v[j]), float(dv[j])
             if vj > 0.0:
