@@ -771,7 +771,9 @@ class _StickProblem:
             h = 1e-7 * max(1.0, abs(x[k]))
             if segs.size:
                 a, b = self.seg_ends(x[:self.n_theta], segs)
-                h = min(h, 1e-3 * float(np.min(b - a)))
+                shortest = float(np.min(b - a))
+                if shortest > 0.0:
+                    h = min(h, 1e-3 * shortest)
             xk = x.copy()
             xk[k] += h
             thk = xk[:self.n_theta]
