@@ -104,6 +104,26 @@ def kink_vs_radau(n_nodes=9, length=8.0, periods=1.0, rtol=1e-11, n_samples=4, *
                 radau_steps=int(ref.n_steps))
 
 
+def sensitivity(n_nodes=17, length=8.0, periods=2.0, n_samples=8, eps=1e-13, **options):
+    """Largest state change per output time when the initial velocity of a kink moves by ``eps``.
+
+    Measures the conditioning of the soft model itself (slow contacts amplify perturbations).
+
+    Returns
+    -------
+    list of float
+    """
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=length, boundary="pinned")
+    t0 = fl.t0 + 1.0
+    w, z = kink_state(lat, fl, t0, width=2.0)
+    t_end = t0 + periods * fl.period
+    t_eval = t0 + (t_end - t0) * np.arange(1, n_samples + 1) / n_samples
+    runs = [drive(SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options), t0, w + d, z, t_end, t_eval)[4]
+            for d in (0.0, eps)]
+    return [float(max(np.max(np.abs(a[1] - b[1])), np.max(np.abs(a[2] - b[2])))) for a, b in zip(*runs)]
+
+
 def big_kink(n_nodes=481, dx=0.1, periods=1, **options):
     """Seconds per period of the soft kink on ``n_nodes`` nodes with spacing ``dx`` (pinned ends).
 
@@ -149,6 +169,10 @@ def main(argv=None):
                   f"impacts {r['soft_impacts']} / {r['radau_impacts']}; soft {r['soft_wall']:.2f} s wall "
                   f"{r['soft_cpu']:.2f} s cpu, Radau {r['radau_wall']:.1f} s wall {r['radau_cpu']:.1f} s cpu; "
                   f"ratio {r['ratio_wall']:.0f} (wall) {r['ratio_cpu']:.0f} (cpu)")
+        if args.full:
+            d = sensitivity(stick_speed=1e-8, max_events=5000)
+            print("kink n=17: state change per sample after a 1e-13 change of the initial w: "
+                  + ", ".join(f"{x:.1e}" for x in d))
 
 
 if __name__ == "__main__":
