@@ -58,9 +58,25 @@ flat e = 0 orbit comes out exact to rounding.  The only approximation on a latti
 is the polynomial reaction (spectral in ``n_basis`` while no neighbour event falls
 inside a stick interval) and the quadrature (``n_quad`` points per sub-interval).
 
+Where a lattice neighbour lands or lifts off inside a stick interval, the reaction
+jumps or kinks there; the interval is then cut into *segments* at those (unknown)
+times, each with its own Legendre expansion, so the expansion stays spectral.
+Stick intervals shorter than 1e-10 (the chains of landings in near-flat regions,
+where a node waits for its neighbour to land) are taken as impacts with
+:math:`w^+ = 0`; segments shorter than 1e-6 carry one constant reaction term
+balanced against the neighbours at their midpoint.
+
 The nonlinear system is solved by Newton's method with a dense Jacobian: exact in
-the linear unknowns (impulses, reaction coefficients), by forward differences in
-the times, where only the rows and columns a time touches are recomputed.
+the linear unknowns (impulses, reaction coefficients), analytic in the impulse
+times (the impulse kernels kink where two impacts coincide, docs/design.md,
+hazard 7), by forward differences in the remaining smooth time dependence, where
+only the rows and columns a time touches are recomputed; the Jacobian is reused
+while it contracts the residual tenfold per step.
+
+Scope: Neumann lattices (planar or axisymmetric).  The continuum kink (the
+HelmholtzSolver Green's function) is not implemented here.  Cost: a 21-node
+lattice takes about a minute, a 41-node one several minutes (dense Jacobian,
+O(n_nodes^3) per residual).
 
 The contact pattern (kinds, triggers) is fixed during the solve; it is taken from
 a time-stepped FDA run (:func:`pattern_from_fda`) or given by the caller, and
@@ -86,6 +102,7 @@ _COLLAPSE = 1e-10           # stick intervals shorter than this: an impact with 
 _BREAK_MARGIN = 1e-12      # neighbour events closer than this to an end do not cut a segment
 _MEDIUM = 1e-3              # segments shorter than this: at most 2 reaction terms
 _COLL_SCALE = 1e-2          # collocated w = 0 is divided by max(segment length, this)
+_BREAK_DISTANCE = 3          # cut stick intervals at events of nodes up to this graph distance
 _SHORT = 1e-6               # shorter than this: one reaction term, balanced at the midpoint
 
 
@@ -449,16 +466,25 @@ class _StickProblem:
         theta0 = np.concatenate([pattern.t, pattern.tau[self.stick]])
         A = modal.A
         nn = pattern.n_nodes
-        # ---- segments
+        # ---- segments: the reaction -(L w)_j jumps at a neighbour's impact and has weaker
+        # singularities at events further away (graph distance d: impacts make a jump in the
+        # (d-1)-th derivative, lift-offs one order weaker); cut at impacts with d <= 3 and
+        # lift-offs with d <= 2
+        adj = (A != 0) & ~np.eye(nn, dtype=bool)
+        dist = np.full((nn, nn), 99)
+        reach = np.eye(nn, dtype=bool)
+        for d in range(1, _BREAK_DISTANCE + 1):
+            reach = reach | (reach.astype(int) @ adj.astype(int) > 0)
+            dist[(dist == 99) & reach] = d
+        np.fill_diagonal(dist, 0)
         seg = []                      # (s, node, a_idx, a_shift, b_idx, b_shift)
         for s, c in enumerate(self.stick):
             j = pattern.node[c]
             a0, b0 = theta0[c], theta0[C + s]
-            nbrs = np.nonzero((A[j] != 0) & (np.arange(nn) != j))[0]
             pts = []
-            for k in np.nonzero(np.isin(pattern.node, nbrs))[0]:
+            for k in np.nonzero((dist[j, pattern.node] >= 1) & (dist[j, pattern.node] <= _BREAK_DISTANCE))[0]:
                 cands = [(k, theta0[k])]
-                if self.stick_of[k] >= 0:
+                if self.stick_of[k] >= 0 and dist[j, pattern.node[k]] < _BREAK_DISTANCE:
                     cands.append((C + self.stick_of[k], theta0[C + self.stick_of[k]]))
                 for idx, tv in cands:
                     m = math.floor((a0 - tv) / T) + 1
@@ -468,7 +494,13 @@ class _StickProblem:
                             pts.append((tm, idx, m))
                         m += 1
             pts.sort()
-            ends = [(c, 0)] + [(idx, m) for _, idx, m in pts] + [(C + s, 0)]
+            kept = []
+            for tm, idx, m in pts:         # coincident events (a triggered lift-off and its trigger): one cut
+                if not kept or tm - kept[-1][0] > _BREAK_MARGIN:
+                    kept.append((tm, idx, m))
+                elif idx < C:
+                    kept[-1] = (tm, idx, m)
+            ends = [(c, 0)] + [(idx, m) for _, idx, m in kept] + [(C + s, 0)]
             for (ia, ma), (ib, mb) in zip(ends[:-1], ends[1:]):
                 seg.append((s, j, ia, ma, ib, mb))
         self.G = len(seg)
@@ -739,7 +771,9 @@ class _StickProblem:
             h = 1e-7 * max(1.0, abs(x[k]))
             if segs.size:
                 a, b = self.seg_ends(x[:self.n_theta], segs)
-                h = min(h, 1e-3 * float(np.min(b - a)))
+                shortest = float(np.min(b - a))
+                if shortest > 0.0:
+                    h = min(h, 1e-3 * shortest)
             xk = x.copy()
             xk[k] += h
             thk = xk[:self.n_theta]
@@ -1164,8 +1198,8 @@ def _flat_functions(orb):
 
 
 def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None, zeta0=None,
-                        t_start=None, periods=20, n_basis=4, n_quad=16, tol=1e-11, max_iter=20,
-                        n_harmonics=32):
+                        t_start=None, periods=20, n_basis=6, n_quad=16, tol=1e-10, max_iter=15,
+                        n_harmonics=32, refresh=1):
     r"""Periodic orbit with impact-and-stick contacts on a Neumann FDA lattice.
 
     Parameters
@@ -1192,11 +1226,15 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     max_iter : int, keyword-only
     n_harmonics : int, keyword-only
         N of the returned ``w_hat``.
+    refresh : int, keyword-only
+        If Newton fails, re-read the pattern from a 3-period FDA run started on the last
+        iterate and solve again, up to this many times.
 
     Returns
     -------
     StickSolution
-        Also ``fda`` (the run the pattern came from, if any) and ``pattern_source``.
+        Also ``fda`` (the run the initial pattern came from, if any), ``lattice`` and
+        ``pattern_source``.
 
     Examples
     --------
@@ -1235,11 +1273,30 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
             raise ValueError("pattern must be for this lattice (n_nodes) and period 2 pi M")
         _check_pattern(pattern)
         source = "user pattern"
-    sol = _solve_pattern(_Modal(lattice, T), pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
+    modal = _Modal(lattice, T)
+    sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
                          max_iter, n_harmonics)
     sol.fda = run
-    sol.pattern_source = source
     sol.lattice = lattice
+    refresh = check_int(refresh, "refresh", minimum=0)
+    for k in range(refresh):
+        if sol.converged:
+            break
+        # no solution with this pattern near the start: re-read the pattern from the FDA
+        # started on the last iterate (the transient's pattern may differ from the orbit's)
+        chk = check_with_fda(sol, periods=3)
+        if chk.run.status != 0:
+            break
+        try:
+            pattern = pattern_from_fda(chk.run, lattice, T)
+        except ValueError:
+            break
+        source += f"; pattern re-read from an FDA run on the last iterate ({k + 1})"
+        sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
+                             max_iter, n_harmonics)
+        sol.fda = run
+        sol.lattice = lattice
+    sol.pattern_source = source
     return sol
 
 

@@ -82,6 +82,40 @@ def lattice_case(n_nodes, length=40.0, Gamma=4.1, n_basis=6, periods=20, fda_per
     return out
 
 
+def fda_on_tps(sol, periods=10):
+    """Max distance per period between the FDA started on the TPS state and the TPS contact times."""
+    chk = ts.check_with_fda(sol, periods=periods)
+    run, T, p = chk.run, sol.period, sol.pattern
+    out = []
+    for m in range(periods):
+        err = 0.0
+        for j in range(p.n_nodes):
+            e = run.events[(run.events.node == j) & (run.events.kind != "liftoff")]
+            for c in np.nonzero(p.node == j)[0]:
+                tc = chk.t_start + np.mod(p.t[c] - chk.t_start, T) + m * T
+                err = max(err, float(np.min(np.abs(e.t - tc))))
+        out.append(err)
+    return out
+
+
+def fda_from_kink(sol, checkpoints=(20, 40, 80, 160)):
+    """Max distance of the FDA contacts (run from the kink start) to the TPS contacts, per checkpoint."""
+    lat, T, p = sol.lattice, sol.period, sol.pattern
+    t0, w0, z0 = ts.kink_state(lat, sol.Gamma, sol.M)
+    run = tps.simulate(lat, sol.Gamma, sol.e, w0, z0, t_start=t0, t_end=t0 + max(checkpoints) * T)
+    out = []
+    for P in checkpoints:
+        err = 0.0
+        for j in range(p.n_nodes):
+            ev = run.events
+            e = ev[(ev.node == j) & (ev.kind != "liftoff") & (ev.t > t0 + (P - 2) * T) & (ev.t < t0 + P * T)]
+            for c in np.nonzero(p.node == j)[0]:
+                ph = np.mod(e.t - p.t[c] + T / 2, T) - T / 2
+                err = max(err, float(np.min(np.abs(ph))) if e.size else np.inf)
+        out.append((P, err))
+    return out
+
+
 def _table(rows, cols):
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
@@ -97,6 +131,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--dx", type=float, nargs="*", default=None)
+    ap.add_argument("--periods", type=int, default=160, help="FDA periods for the initial pattern")
     args = ap.parse_args(argv)
     print("## Flat e = 0 orbit: TPS from a perturbed uniform start (perturbation 1e-2)\n")
     rows = [flat_errors(G, n) for G in GAMMAS for n in (1, 4)]
@@ -107,7 +142,7 @@ def main(argv=None):
     rows = []
     for G in GAMMAS:
         for dx in dxs:
-            r = lattice_case(int(round(40.0 / dx)) + 1, Gamma=G)
+            r = lattice_case(int(round(40.0 / dx)) + 1, Gamma=G, periods=args.periods)
             rows.append(r)
     print(_table(rows, ["Gamma", "dx", "n_basis", "converged", "residual", "stick_w_max", "all_pass",
                         "fda_contact_error", "fda_liftoff_error", "fda_kink_distance", "front_width",
@@ -117,6 +152,13 @@ def main(argv=None):
         rows = [lattice_case(21, Gamma=4.1, n_basis=nb) for nb in (2, 3, 4, 5, 6)]
         print(_table(rows, ["n_basis", "converged", "residual", "stick_w_max", "fda_contact_error",
                             "fda_liftoff_error", "seconds"]))
+        sol = rows[-1]["solution"]
+        if sol.converged:
+            print("\n## FDA on the TPS state, and FDA from the kink start (Gamma = 4.1, dx = 2)\n")
+            print("max contact-time distance per period, FDA started on the TPS state:",
+                  ", ".join(f"{v:.2e}" for v in fda_on_tps(sol)))
+            print("\nFDA from the kink start, distance to the TPS contacts:",
+                  ", ".join(f"{P} periods: {v:.2e}" for P, v in fda_from_kink(sol)))
 
 
 if __name__ == "__main__":

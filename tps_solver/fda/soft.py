@@ -12,7 +12,7 @@ contact set :math:`C` fixed, the state :math:`y = (w, \zeta)` obeys
 (A.1)), a linear system :math:`\dot y = A_C y + b_C(t)` with a *tridiagonal*
 :math:`\underline L`.  :class:`SoftIntegrator` integrates it between switches
 with the ``s``-stage Radau IIA collocation method (order :math:`2s-1`,
-L-stable, default ``s = 5``: order 9).  Diagonalising the Butcher matrix turns
+L-stable, default ``s = 6``: order 11).  Diagonalising the Butcher matrix turns
 the stage system into :math:`\lceil s/2\rceil` decoupled systems
 :math:`(I - \mu A_C)Z = R`; eliminating :math:`\zeta` leaves, for each, the
 tridiagonal system
@@ -33,31 +33,62 @@ free node (entry), :math:`\zeta_i` for a node in soft contact (exit), and the
 free acceleration :math:`a_i = (\underline L w)_i + g(t)` for a held node
 (release, see below).  Every accepted step is scanned on a grid of the
 collocation polynomials of both half steps (so a node that enters and leaves
-within a step is still seen); the earliest crossing is then located by a
-bracketed Newton iteration whose every evaluation is a *full* collocation step
-from the start of the step (order :math:`2s-1`, not the polynomial's order
-``s``), stopping when the Newton correction is below ``time_tol / 100`` (or
-4 ulp of ``t``).  Other nodes whose crossing lies within ``time_tol`` of the
-located time switch in the same event (a flat region enters as one set); a
-node found to have crossed more than ``time_tol`` *earlier* becomes the new
-target.  A switch only changes :math:`c` -- the state is continuous -- so
-the method carries no impact map.
+within a step is still seen, unless it does so between two grid points); the
+earliest crossing, guessed from the polynomial, is then located by a
+bracketed Newton iteration in the step size :math:`h` whose every evaluation
+is a *full* collocation step from the start of the step (order
+:math:`2s-1`, not the polynomial's order ``s``).  Newton stops when its
+correction is below 1e-10 and the state is moved by that correction along the
+flow (an O(correction^2) error), so the switch is located to the precision of
+:math:`h`, not of :math:`t` -- which matters: at :math:`t \approx 600` one ulp
+of ``t`` is 1e-13, and a switch displaced by :math:`\delta t` changes the
+velocity by :math:`(g + 2\beta w)\,\delta t \approx 60\,\delta t`.  The
+returned ``Step.t`` is the float nearest the switch, and the returned state is
+carried along the post-switch flow to that float.  Other nodes whose crossing
+lies within ``time_tol`` of the located time switch in the same event (a flat
+region enters as one set); a node found to have crossed more than
+``time_tol`` *earlier* becomes the new target.  The other crossings that the
+step predicted are kept, and the next :meth:`~SoftIntegrator.advance` call
+locates them directly (no new trial step) when it starts from the returned
+state -- a front entering node by node costs about two steps per switch.  A
+switch only changes :math:`c` -- the state is continuous -- so the method
+carries no impact map.
+
+Conditioning
+------------
+Slow contacts amplify perturbations by about (force jump)/(speed) per switch.
+On the 17-node kink of ``benchmarks/soft_benchmark.py`` (``stick_speed=1e-8``)
+a 1e-13 change of the initial velocity changes the state after one period by
+3e-8 (6 stages) to 7e-7 (5 stages; the micro-chatter sequence differs),
+measured: an amplification of 1e5-1e7, so no two integrators can agree to
+1e-8 there unless their errors are below 1e-15; the sticking rule below removes
+the slowest contacts.
 
 Sticking rule (part of the model; docs/design.md, hazard 10)
 ------------------------------------------------------------
 The linear contact can adhere and a node arriving with a tiny speed
-micro-chatters (entry speed :math:`V`, exit speed :math:`eV`, a flight of
-:math:`2eV/|a|`, then again).  Therefore: a node that enters or leaves the
-soft contact with speed :math:`|w_i| \le` ``stick_speed`` while its free
-acceleration :math:`a_i = (\underline L w)_i + g(t) \le 0` is **held**: set to
-:math:`w_i = \zeta_i = 0` (a jump of at most ``stick_speed``) and moved with
-the plate (its row of :math:`\underline L` is dropped; its neighbours see
-:math:`w_i = 0`).  A held node is **released** (becomes free at
-:math:`\zeta_i = w_i = 0`) when :math:`a_i` turns positive.  Held nodes are
-recognised from the state alone: in contact with :math:`w_i = \zeta_i = 0`
-exactly.  A soft contact otherwise ends only when :math:`\zeta_i` crosses
-zero upwards (a node driven into the plate by its neighbours can stay in soft
-contact with :math:`a_i > 0`; that is the linear model).
+micro-chatters (entry speed :math:`V`, exit speed close to :math:`eV` -- or
+close to :math:`V` when the neighbours push it out after a contact much
+shorter than :math:`\tau_c` -- then a flight of about :math:`2V/|a|`, and
+again; measured on the 481-node kink: speeds 1.46e-5 to 1.28e-5 over 40
+switches).  Therefore: a node that enters or leaves the soft contact with
+speed :math:`|w_i| \le` ``stick_speed`` (default 1e-4) while its free
+acceleration :math:`a_i = (\underline L w)_i + g(t) \le 0` is **held**: set
+to :math:`w_i = \zeta_i = 0` (a jump of at most ``stick_speed`` in
+:math:`w`; :math:`\zeta_i` is within :math:`V^2/|a|` of 0 then) and moved
+with the plate (its row of :math:`\underline L` is dropped; its neighbours
+see :math:`w_i = 0`).  A held node is **released** (becomes free at
+:math:`\zeta_i = w_i = 0`) when :math:`a_i` turns positive, a switch located
+like the others.  Held nodes are recognised from the state alone: in contact
+with :math:`w_i = \zeta_i = 0` exactly.  A soft contact otherwise ends only
+when :math:`\zeta_i` crosses zero upwards (a node driven into the plate by
+its neighbours can stay in soft contact with :math:`a_i > 0`; that is the
+linear model).  ``stick_speed = 0`` gives the pure soft model (then bounded
+only by ``max_events``).  The rule is a model change, not a round-off: on the
+17-node kink of ``benchmarks/soft_benchmark.py`` the default moves the state
+after one and two periods by up to 6e-4 from the pure soft model (measured;
+7 captures), because held nodes leave as soon as :math:`a_i > 0` where the
+linear contact would adhere.
 
 Restitution ``e = 0`` (docs/design.md, hazard 11)
 -------------------------------------------------
@@ -127,6 +158,10 @@ def radau_iia(s):
                 np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]))
 
 
+class _Config:
+    """Constants of one contact configuration (attributes set by ``SoftIntegrator._config``)."""
+
+
 def _lagrange_matrix(nodes, theta):
     """Values at ``theta`` of the Lagrange basis on ``nodes``: shape (len(theta), len(nodes))."""
     nodes = np.asarray(nodes, float)
@@ -154,9 +189,11 @@ class SoftIntegrator(Integrator):
     rtol, atol : float
         Local error tolerances of the step-doubling control (defaults 1e-12).
     stages : int
-        Radau IIA stages ``s`` in 1..9 (order ``2s - 1``); default 5.
+        Radau IIA stages ``s`` in 1..9 (order ``2s - 1``); default 6 (order 11).  Above 7 the
+        eigenvector matrix of the Butcher matrix is ill-conditioned (condition 4e3 at s = 8) and
+        round-off grows (flat-orbit contact times 1.5e-11 at s = 8, 1.2e-13 at s = 6, measured).
     stick_speed : float
-        Capture speed of the sticking rule, >= 0 (default 1e-8; 0 disables capture).
+        Capture speed of the sticking rule, >= 0 (default 1e-4; 0 disables capture).
     time_tol : float
         Simultaneity window of switches, > 0 (default 1e-12); switch times are
         located to ``time_tol / 100``.
@@ -189,7 +226,7 @@ class SoftIntegrator(Integrator):
 
     name = "soft"
     impulsive = False
-    OPTIONS = {"cutoff": None, "rtol": 1e-12, "atol": 1e-12, "stages": 5, "stick_speed": 1e-8,
+    OPTIONS = {"cutoff": None, "rtol": 1e-12, "atol": 1e-12, "stages": 6, "stick_speed": 1e-4,
                "time_tol": 1e-12, "max_step": None, "max_events": 200}
 
     def __init__(self, lattice, Gamma, e, **options):
@@ -221,7 +258,7 @@ class SoftIntegrator(Integrator):
         self.n_rejected = 0
 
         L = np.asarray(lattice.operator, float)
-        n = self.n = L.shape[0]
+        self.n = L.shape[0]
         off = L - np.diag(np.diag(L)) - np.diag(np.diag(L, 1), 1) - np.diag(np.diag(L, -1), -1)
         if np.any(off != 0.0):
             raise ValueError("lattice.operator must be tridiagonal for method='soft'")
@@ -254,63 +291,122 @@ class SoftIntegrator(Integrator):
         self._Trep = np.array([T[:, k] * (2.0 if pair else 1.0) for k, pair in reps]).T  # (s, m)
         self._Tinv_rep = Tinv[[k for k, _ in reps]]                                       # (m, s)
         self._q = self._Tinv_rep.sum(axis=1)                                              # T^-1 1
+        self._q2 = np.tile(self._q, 2)
         self._nodes = np.concatenate(([0.0], c))
-        G = 2 * s + 2
+        G = s + 2
         self._theta = np.arange(1, G + 1) / G
         self._dense = _lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
+        self._vinv = np.linalg.inv(np.vander(self._nodes, increasing=True))              # monomials
         self._order = 2 * s - 1
         self._h = None
         self._event_times = collections.deque()
+        self._event_counts = np.zeros(self.n, np.int64)
+        self._forecast = None
+        self._cfg_cache = {}
 
     # ------------------------------------------------------------ linear algebra
-    def _Lmul(self, u, rows_ok):
-        """:math:`\\underline L' u` for u of shape (..., n); rows of held nodes are zero."""
+    def _Lmul(self, u):
+        """Full :math:`\\underline L u` for u of shape (..., n) (the free acceleration of held nodes)."""
         out = self._Ld * u
         out[..., 1:] += self._Ll * u[..., :-1]
         out[..., :-1] += self._Lu * u[..., 1:]
-        return out * rows_ok
+        return out
 
     def _config(self, mode):
-        """Masks of a contact configuration (mode: 0 free, 1 soft contact, 2 held)."""
+        """Per-configuration constants (mode: 0 free, 1 soft contact, 2 held), cached."""
+        key = mode.tobytes()
+        cfg = self._cfg_cache.get(key)
+        if cfg is None:
+            if len(self._cfg_cache) > 8:
+                self._cfg_cache.clear()
+            cfg = self._cfg_cache[key] = self._make_config(mode)
+        return cfg
+
+    def _make_config(self, mode):
         c = (mode == _CONTACT).astype(float)
         f = (mode == _FREE).astype(float)
         rows_ok = (mode != _HELD).astype(float)
-        return c, f, rows_ok
+        n, b, om2 = self.n, self.beta, self.omega0_sq
+        Ld, Ll, Lu = self._Ld * rows_ok, self._Ll * rows_ok[1:], self._Lu * rows_ok[:-1]
+        lam = self._lam[:, None]
+        cfg = _Config()
+        cfg.c, cfg.f, cfg.rows_ok = c, f, rows_ok
+        cfg.Ld, cfg.Ll, cfg.Lu = Ld, Ll, Lu
+        cfg.dw = Ld - 2.0 * b * c              # diagonal of the w-row of A acting on w
+        cfg.dz = -om2 * c                      # ... acting on zeta
+        # stacked block-tridiagonal stage matrix 1 + h P1 + h^2 P2 (blocks separated by zeros)
+        cfg.P1 = (lam * (2.0 * b * c - Ld)[None, :]).ravel()
+        cfg.P2 = (lam * lam * (om2 * c)[None, :]).ravel()
+        QL = np.zeros((lam.size, n), complex)
+        QU = np.zeros((lam.size, n), complex)
+        QL[:, :-1] = -lam * Ll[None, :]
+        QU[:, :-1] = -lam * Lu[None, :]
+        cfg.QLf, cfg.QUf = QL.ravel(), QU.ravel()           # with the trailing separator
+        cfg.QL, cfg.QU = cfg.QLf[:-1], cfg.QUf[:-1]
+        cfg.P012 = np.vstack((np.ones_like(cfg.P1), cfg.P1, cfg.P2))
+        cfg.P1_2, cfg.P2_2 = np.tile(cfg.P1, 2), np.tile(cfg.P2, 2)
+        cfg.QL_2, cfg.QU_2 = np.tile(cfg.QLf, 2)[:-1], np.tile(cfg.QUf, 2)[:-1]
+        cfg.om2c = om2 * c
+        return cfg
 
     def _rhs(self, t, w, z, cfg):
-        c, f, rows_ok = cfg
-        dw = self._Lmul(w, rows_ok) - 2.0 * self.beta * c * w - self.omega0_sq * c * z \
-            + (math.sin(t) - 1.0 / self.Gamma) * f
-        return dw, w * rows_ok
+        dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
+        dw[1:] += cfg.Ll * w[:-1]
+        dw[:-1] += cfg.Lu * w[1:]
+        return dw, w * cfg.rows_ok
 
     def _step(self, t0, h, w0, z0, cfg):
         """One Radau IIA step; returns (w1, z1, Yw, Yz) with stage values of shape (s, n)."""
-        self.n_steps += 1
-        c, f, rows_ok = cfg
-        n, b, om2 = self.n, self.beta, self.omega0_sq
-        aw = self._Lmul(w0, rows_ok) - 2.0 * b * c * w0 - om2 * c * z0
-        g = np.sin(t0 + self._c * h) - 1.0 / self.Gamma
-        ghat = self._Tinv_rep @ g                                     # (m,)
-        mu = h * self._lam                                            # (m,)
-        m = mu.size
-        rw = mu[:, None] * (self._q[:, None] * aw[None, :] + ghat[:, None] * f[None, :])
-        rz = mu[:, None] * self._q[:, None] * w0[None, :]
-        rhs = rw - om2 * mu[:, None] * c[None, :] * rz
-        diag = 1.0 - mu[:, None] * (self._Ld * rows_ok)[None, :] \
-            + c[None, :] * (2.0 * b * mu + om2 * mu * mu)[:, None]
-        dl = np.zeros((m, n), complex)
-        du = np.zeros((m, n), complex)
-        dl[:, :-1] = -mu[:, None] * (self._Ll * rows_ok[1:])[None, :]
-        du[:, :-1] = -mu[:, None] * (self._Lu * rows_ok[:-1])[None, :]
-        _, _, _, x, info = lapack.zgtsv(dl.ravel()[:-1], diag.ravel(), du.ravel()[:-1],
-                                        rhs.reshape(-1, 1), 1, 1, 1, 1)
+        return self._steps(t0, (h,), w0, z0, cfg)[0]
+
+    def _steps(self, t0, hs, w0, z0, cfg, stages=None):
+        """Radau IIA steps of sizes ``hs`` (1 or 2 of them) from the same start, in one ``zgtsv`` call.
+
+        Returns a list of (w1, z1, Yw, Yz), stage values of shape (s, n); ``stages[i]`` False
+        skips the stage values of step i (then ``Yw = Yz = None``).
+        """
+        k = len(hs)
+        self.n_steps += k
+        n, m, s = self.n, self._lam.size, self.stages
+        aw = cfg.dw * w0 + cfg.dz * z0
+        aw[1:] += cfg.Ll * w0[:-1]
+        aw[:-1] += cfg.Lu * w0[1:]
+        hv = np.array(hs, float)
+        g = np.sin(t0 + np.multiply.outer(hv, self._c)) - 1.0 / self.Gamma      # (k, s)
+        mu = np.multiply.outer(hv, self._lam).ravel()                             # (k m,)
+        muq = mu * (self._q if k == 1 else self._q2)
+        ghat = (g @ self._Tinv_rep.T).ravel()                                     # (k m,)
+        # right-hand sides (k m, n) = K @ [aw; f; om2 c w0] in one product
+        K = np.stack((muq, mu * ghat, -mu * muq), axis=1)
+        R = np.vstack((aw, cfg.f, cfg.om2c * w0))
+        rhs = K.real @ R + 1j * (K.imag @ R)
+        if k == 1:
+            h = hs[0]
+            diag = np.array([1.0, h, h * h]) @ cfg.P012
+            dl, du = h * cfg.QL, h * cfg.QU
+        else:
+            hr = np.repeat(hv, cfg.P1.size)
+            diag = 1.0 + hr * cfg.P1_2 + (hr * hr) * cfg.P2_2
+            hr = hr[:-1]
+            dl, du = hr * cfg.QL_2, hr * cfg.QU_2
+        _, _, _, x, info = lapack.zgtsv(dl, diag, du, rhs.reshape(-1, 1), 1, 1, 1, 1)
         if info != 0:
-            raise RuntimeError(f"soft integrator: singular stage system at t = {t0:.15g} (h = {h:.3g})")
-        Zw = x.reshape(m, n)
-        Zz = rz + mu[:, None] * Zw
-        Yw = w0[None, :] + (self._Trep @ Zw).real
-        Yz = z0[None, :] + (self._Trep @ Zz).real
-        return Yw[-1].copy(), Yz[-1].copy(), Yw, Yz
+            raise RuntimeError(f"soft integrator: singular stage system at t = {t0:.15g} (h = {hs})")
+        Zw = x.reshape(-1, n)
+        out = []
+        Tr = self._Trep
+        for i in range(k):
+            mui, muqi = mu[i * m:(i + 1) * m], muq[i * m:(i + 1) * m]
+            if stages is not None and not stages[i]:                 # the end point only
+                Te = Tr[-1]
+                Rr = (np.vstack((Te, Te * mui)) @ Zw[i * m:(i + 1) * m]).real  # (2, n)
+                out.append((Rr[0] + w0, Rr[1] + z0 + (Te @ muqi).real * w0, None, None))
+                continue
+            Rr = (np.vstack((Tr, Tr * mui)) @ Zw[i * m:(i + 1) * m]).real       # (2 s, n)
+            Yw = Rr[:s] + w0
+            Yz = Rr[s:] + z0 + np.multiply.outer((Tr @ muqi).real, w0)
+            out.append((Yw[-1].copy(), Yz[-1].copy(), Yw, Yz))
+        return out
 
     # --------------------------------------------------------------- violations
     def _violation(self, t, w, z, mode, cfg, with_rate=True):
@@ -320,11 +416,11 @@ class SoftIntegrator(Integrator):
         if with_rate:
             dv = np.where(mode == _FREE, -w, w)
         if held.any():
-            a = self._Lmul(w, 1.0) + (math.sin(t) - 1.0 / self.Gamma)
+            a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
             v = np.where(held, a, v)
             if with_rate:
                 dw, _ = self._rhs(t, w, z, cfg)
-                da = self._Lmul(dw, 1.0) + math.cos(t)
+                da = self._Lmul(dw) + math.cos(t)
                 dv = np.where(held, da, dv)
         return (v, dv) if with_rate else v
 
@@ -337,7 +433,7 @@ class SoftIntegrator(Integrator):
         held = mode == _HELD
         if held.any():
             Wg = P @ np.vstack((w0[None, :], Yw))
-            a = self._Lmul(Wg, 1.0) + (np.sin(tg) - 1.0 / self.Gamma)[:, None]
+            a = self._Lmul(Wg) + (np.sin(tg) - 1.0 / self.Gamma)[:, None]
             v = np.where(held[None, :], a, v)
         return tg, v
 
@@ -351,8 +447,10 @@ class SoftIntegrator(Integrator):
     def _consistency(self, t, w, z, mode, events):
         """Switch nodes whose configuration contradicts the state at t (e.g. an initial state)."""
         free, cont = mode == _FREE, mode == _CONTACT
-        enter = np.flatnonzero(free & (z < 0.0) & ((w < 0.0) | (z < -self.time_tol)))
-        leave = np.flatnonzero(cont & (z > 0.0) & ((w > 0.0) | (z > self.time_tol)))
+        # nodes switched within the simultaneity window sit up to time_tol * |w| on the wrong side
+        zt = 2.0 * self.time_tol * np.abs(w)
+        enter = np.flatnonzero(free & (z < 0.0) & ((w < 0.0) | (z < -zt)))
+        leave = np.flatnonzero(cont & (z > 0.0) & ((w > 0.0) | (z > zt)))
         held = mode == _HELD
         if enter.size or leave.size:
             self._switch(t, w, z, mode, enter, leave, np.empty(0, int), events)
@@ -368,9 +466,7 @@ class SoftIntegrator(Integrator):
         vs = self.stick_speed
         a = None
         if vs > 0.0 and (enter.size or leave.size):
-            held = mode == _HELD
-            a = self._Lmul(w, 1.0) + (math.sin(t) - 1.0 / self.Gamma)
-            del held
+            a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
         for j in enter:
             wb = float(w[j])
             if a is not None and abs(wb) <= vs and a[j] <= 0.0:
@@ -394,17 +490,20 @@ class SoftIntegrator(Integrator):
             w[j] = z[j] = 0.0
             events.append((t, int(j), "liftoff", 0.0))
 
-    def _count_events(self, t, k):
-        dq = self._event_times
-        for _ in range(k):
-            dq.append(t)
-        while dq and dq[0] < t - 2.0 * math.pi:
-            dq.popleft()
-        if len(dq) > self.max_events * self.n:
+    def _count_events(self, t, nodes):
+        """Per-node event bound within one forcing period 2 pi (RuntimeError beyond it)."""
+        dq, counts = self._event_times, self._event_counts
+        for j in nodes:
+            dq.append((t, j))
+            counts[j] += 1
+        while dq and dq[0][0] < t - 2.0 * math.pi:
+            counts[dq.popleft()[1]] -= 1
+        worst = int(np.argmax(counts))
+        if counts[worst] > self.max_events:
             raise RuntimeError(
-                f"soft integrator: more than max_events * n_nodes = {self.max_events * self.n} events "
+                f"soft integrator: node {worst} had more than max_events = {self.max_events} events "
                 f"within one forcing period 2*pi before t = {t:.15g} (chattering); raise stick_speed "
-                f"(now {self.stick_speed:g}) or max_events (now {self.max_events})")
+                f"(now {self.stick_speed:g}) or max_events")
 
     def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
         """Propagate from ``t`` to the next switch or to ``t_stop`` (see :meth:`Integrator.advance`).
@@ -441,17 +540,26 @@ class SoftIntegrator(Integrator):
         events = []
         self._consistency(t, w, z, mode, events)
         if events:
-            self._count_events(t, len(events))
+            self._count_events(t, [ev[1] for ev in events])
             return Step(t=t, w=w, zeta=z, events=events, stuck=mode != _FREE)
-        t_eval = np.asarray(t_eval, float).ravel()
+        t_eval = np.asarray(() if t_eval is None else t_eval, float).ravel()
         k_eval = int(np.searchsorted(t_eval, t, side="right"))
         samples = []
         cfg = self._config(mode)
+        fc, self._forecast = self._forecast, None
+        if fc is not None and not (fc["t"] == t and np.array_equal(fc["w"], w) and np.array_equal(fc["z"], z)):
+            fc = None
         if self._h is None:
             self._h = min(self.max_step, 0.1 * self.tau_c)
         order = self._order
         while True:
             t_target = t_stop if k_eval >= t_eval.size else min(t_stop, t_eval[k_eval])
+            if fc is not None:
+                # the previous trial step predicted more crossings: go straight to the next one
+                found = self._from_forecast(t, w, z, mode, cfg, fc, t_target)
+                fc = None
+                if found is not None:
+                    return self._finish(t, w, z, mode, cfg, *found, t_eval, k_eval, samples, events)
             h = min(self._h, self.max_step, t_target - t)
             last = h >= t_target - t
             # step ends are floats and steps are their exact differences (no drift of t)
@@ -460,8 +568,7 @@ class SoftIntegrator(Integrator):
             t_mid = t + 0.5 * h
             hh, h2 = t_mid - t, t_new - t_mid
             # trial step and two half steps (error estimate)
-            w1, z1, _, _ = self._step(t, h, w, z, cfg)
-            wa, za, Ywa, Yza = self._step(t, hh, w, z, cfg)
+            (w1, z1, _, _), (wa, za, Ywa, Yza) = self._steps(t, (h, hh), w, z, cfg, (False, True))
             wb, zb, Ywb, Yzb = self._step(t_mid, h2, wa, za, cfg)
             scale = self.atol + self.rtol * np.maximum(np.abs(np.concatenate((w, z))),
                                                        np.abs(np.concatenate((wb, zb))))
@@ -481,47 +588,31 @@ class SoftIntegrator(Integrator):
             v0 = np.minimum(self._violation(t, w, z, mode, cfg, with_rate=False), 0.0)
             tga, va = self._grid_violation(t, hh, w, z, Ywa, Yza, mode)
             tgb, vb = self._grid_violation(t_mid, h2, wa, za, Ywb, Yzb, mode)
-            tg = np.concatenate((tga[:-1], [t_mid], tgb[:-1], [t_new]))
+            tg = np.concatenate(([t], tga[:-1], [t_mid], tgb[:-1], [t_new]))
             vg = np.vstack((v0[None, :], va[:-1], self._violation(t_mid, wa, za, mode, cfg, False)[None, :],
                             vb[:-1], self._violation(t_new, wb, zb, mode, cfg, False)[None, :]))
-            tg = np.concatenate(([t], tg))
             pos = vg > 0.0
             hit = pos.any(axis=0)
             if hit.any():
-                first = np.argmax(pos, axis=0)
                 nodes = np.flatnonzero(hit)
-                kmin = first[nodes].min()
-                cand = nodes[first[nodes] == kmin]
-                lo, hi = vg[kmin - 1, cand], vg[kmin, cand]
-                guess = tg[kmin - 1] + (tg[kmin] - tg[kmin - 1]) * (-lo) / (hi - lo)
-                j = int(cand[np.argmin(guess)])
-                h_guess, h_hi = float(guess.min()) - t, float(tg[kmin]) - t
-                for _ in range(4 * self.n + 4):
-                    he, we, ze = self._locate(t, w, z, mode, cfg, j, h_guess, h_hi)
-                    ev, early, dt_early = self._simultaneous(t + he, we, ze, mode, cfg, j)
-                    if early < 0:
-                        break
-                    j, h_hi, h_guess = early, he, he - dt_early
-                else:
-                    raise RuntimeError(f"soft integrator: switch search stalled after t = {t:.15g}; "
-                                       "try a smaller max_step")
-                # the switch happens at the real time t + he; report the float te = fl(t + he) and
-                # move the post-switch state along the post-switch flow by te - (t + he) (|.| <= ulp)
-                te = t + he
-                delta = -((t - (te - (te - t))) + (he - (te - t)))     # te - (t + he), exact (TwoSum)
-                if k_eval < t_eval.size and t_eval[k_eval] <= te:
-                    samples.append((float(t_eval[k_eval]), we.copy(), ze.copy()))
-                    k_eval += 1
-                enter = ev[mode[ev] == _FREE]
-                leave = ev[mode[ev] == _CONTACT]
-                release = ev[mode[ev] == _HELD]
-                self._switch(te, we, ze, mode, enter, leave, release, events)
-                if delta != 0.0:
-                    cfg = self._config(mode)
-                    dw, dz = self._rhs(t + he, we, ze, cfg)
-                    we, ze = we + delta * dw, ze + delta * dz
-                self._count_events(te, len(events))
-                return Step(t=te, w=we, zeta=ze, samples=samples, events=events, stuck=mode != _FREE)
+                k = np.argmax(pos[:, nodes], axis=0)                   # first grid index past a crossing
+                lo, hi = vg[k - 1, nodes], vg[k, nodes]
+                guess = tg[k - 1] + (tg[k] - tg[k - 1]) * (-lo) / (hi - lo)
+                # v(t) may be 0 (a node that has just switched, moving away): search from the upper point
+                guess = np.where(k == 1, tg[k], guess)
+                G = self._theta.size
+                for half, (ts_, hs_, z_, Yz_) in enumerate(((t, hh, z, Yza), (t_mid, h2, za, Yzb))):
+                    sel = ((k <= G) if half == 0 else (k > G)) & (mode[nodes] != _HELD)
+                    if sel.any():                            # polish on the collocation polynomial
+                        idx = nodes[sel]
+                        guess[sel] = ts_ + hs_ * self._poly_roots(
+                            np.vstack((z_[idx][None, :], Yz_[:, idx])), (tg[k[sel] - 1] - ts_) / hs_,
+                            (tg[k[sel]] - ts_) / hs_, (guess[sel] - ts_) / hs_)
+                i = int(np.argmin(guess))
+                j = int(nodes[i])
+                he, we, ze = self._locate(t, w, z, mode, cfg, j, float(guess[i]) - t, float(tg[k[i]]) - t)
+                fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": t_new}
+                return self._finish(t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events)
             # accept the two half steps (the more accurate value)
             t, w, z = t_new, wb, zb
             if k_eval < t_eval.size and t_eval[k_eval] == t:
@@ -530,8 +621,59 @@ class SoftIntegrator(Integrator):
             if t >= t_stop:
                 return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
 
+    def _from_forecast(self, t, w, z, mode, cfg, fc, t_target):
+        """Locate the next predicted crossing without a trial step; None if the prediction fails."""
+        ok = (fc["mode"] == mode[fc["nodes"]]) & (fc["guess"] < fc["t_limit"])
+        if not ok.any():
+            return None
+        nodes, guess = fc["nodes"][ok], fc["guess"][ok]
+        h_max = min(fc["t_limit"], t_target) - t
+        i = int(np.argmin(guess))
+        if guess[i] - t > h_max or h_max <= 0.0:
+            return None
+        j = int(nodes[i])
+        res = self._locate(t, w, z, mode, cfg, j, max(float(guess[i]) - t, 0.0), h_max, verified=False)
+        if res is None:
+            return None
+        he, we, ze = res
+        fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": fc["t_limit"]}
+        return j, he, we, ze, fc
+
+    def _finish(self, t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events):
+        """Complete a switch located at t + he (node j): simultaneous nodes, sticking rule, Step."""
+        for _ in range(4 * self.n + 4):
+            ev, early, dt_early = self._simultaneous(t + he, we, ze, mode, cfg, j)
+            if early < 0:
+                break
+            j = early
+            he, we, ze = self._locate(t, w, z, mode, cfg, j, he - dt_early, he)
+        else:
+            raise RuntimeError(f"soft integrator: switch search stalled after t = {t:.15g}; "
+                               "try a smaller max_step")
+        # the switch happens at the real time t + he; report the float te = fl(t + he) and
+        # move the post-switch state along the post-switch flow by te - (t + he) (|.| <= ulp)
+        te = t + he
+        delta = -((t - (te - (te - t))) + (he - (te - t)))     # te - (t + he), exact (TwoSum)
+        if k_eval < t_eval.size and t_eval[k_eval] <= te:
+            samples.append((float(t_eval[k_eval]), we.copy(), ze.copy()))
+        enter = ev[mode[ev] == _FREE]
+        leave = ev[mode[ev] == _CONTACT]
+        release = ev[mode[ev] == _HELD]
+        self._switch(te, we, ze, mode, enter, leave, release, events)
+        if delta != 0.0:
+            dw, dz = self._rhs(t + he, we, ze, self._config(mode))
+            we, ze = we + delta * dw, ze + delta * dz
+        self._count_events(te, [ev[1] for ev in events])
+        switched = np.zeros(self.n, bool)
+        switched[ev] = True
+        keep = ~switched[fc["nodes"]]
+        if keep.any():
+            self._forecast = {"t": te, "w": we, "z": ze, "nodes": fc["nodes"][keep],
+                              "guess": fc["guess"][keep], "mode": fc["mode"][keep], "t_limit": fc["t_limit"]}
+        return Step(t=te, w=we, zeta=ze, samples=samples, events=events, stuck=mode != _FREE)
+
     # ------------------------------------------------------------ event location
-    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi):
+    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi, verified=True):
         """Safeguarded Newton in the step size h for the crossing of node j in (0, h_hi].
 
         Every evaluation is a full collocation step from ``t0``; h is kept relative to ``t0``, so the
@@ -540,28 +682,52 @@ class SoftIntegrator(Integrator):
         lo, hi = 0.0, h_hi
         hk = min(max(guess, 0.0), h_hi)
         best = None
-        for _ in range(60):
+        for it in range(60):
+            if not verified and it >= 6:
+                return None
             if hk <= 0.0:
                 hk = 0.5 * hi
-            we, ze, _, _ = self._step(t0, hk, w0, z0, cfg)
+            we, ze, _, _ = self._steps(t0, (hk,), w0, z0, cfg, (False,))[0]
             v, dv = self._violation(t0 + hk, we, ze, mode, cfg)
             vj, dvj = float(v[j]), float(dv[j])
             if vj > 0.0:
                 hi = hk
+                verified = True
             else:
                 lo = hk
             corr = -vj / dvj if dvj > 0.0 else math.inf
             if best is None or abs(corr) < best[0]:
                 best = (abs(corr), hk, we, ze)
-            tol = max(1e-3 * self.time_tol * 1e-1, 4.0 * math.ulp(hk))
-            if abs(corr) <= tol or hi - lo <= tol:
-                return best[1], best[2], best[3]
+            if abs(corr) <= 1e-10:
+                # Newton has converged quadratically: the root is hk + corr to O(corr^2); move the
+                # state there along the (pre-switch) flow, an O(corr^2) error
+                dw, dz = self._rhs(t0 + hk, we, ze, cfg)
+                return hk + corr, we + corr * dw, ze + corr * dz
+            if hi - lo <= 4.0 * math.ulp(hk):
+                return (best[1], best[2], best[3]) if verified else None
             hn = hk + corr
             if not (lo < hn < hi) or not math.isfinite(hn):
                 hn = 0.5 * (lo + hi)
             hk = hn
         raise RuntimeError(f"soft integrator: switch search of node {j} stalled near t = {t0 + hk:.15g} "
                            f"(bracket width {hi - lo:.3g}); try a smaller max_step or time_tol")
+
+    def _poly_roots(self, vals, lo, hi, guess):
+        """Roots in [lo, hi] of the collocation polynomials with values ``vals`` (s+1, k) at (0, c)."""
+        coef = self._vinv @ vals                          # ascending monomial coefficients, (s+1, k)
+        x = np.clip(guess, lo, hi)
+        deg = coef.shape[0] - 1
+        for _ in range(5):
+            p = coef[deg] * np.ones_like(x)
+            dp = np.zeros_like(x)
+            for m in range(deg - 1, -1, -1):
+                dp = dp * x + p
+                p = p * x + coef[m]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xn = x - p / dp
+            good = np.isfinite(xn) & (xn >= lo) & (xn <= hi)
+            x = np.where(good, xn, x)
+        return x
 
     def _simultaneous(self, te, we, ze, mode, cfg, j):
         """Nodes switching at te: j and every node whose crossing lies within time_tol of te.

@@ -1,0 +1,179 @@
+"""Benchmark of the fast soft-contact integrator (``tps_solver.fda.soft.SoftIntegrator``).
+
+Run ``python -m benchmarks.soft_benchmark`` (add ``--full`` for the 17-node Radau comparison over two
+periods, several minutes).  Every timing is taken with ``threadpoolctl.threadpool_limits(1)`` and is
+reported both as wall-clock and as process CPU time (the machine may be shared).
+
+Measured, side by side in one run:
+
+* the soft flat orbit over ``periods`` periods against the closed form ``SoftFlatOrbit``: largest
+  error of the entry and exit times;
+* a kink against the Radau reference ``simulate_soft`` (rtol 1e-11): largest state difference at
+  the output times, and the ratio of the run times;
+* the 481-node kink (dx = 0.1, cutoff 0.3): seconds per period, steps and events.
+"""
+import argparse
+import contextlib
+import time
+
+import numpy as np
+
+import tps_solver as tps
+from tps_solver.fda import kink_state
+from tps_solver.fda.regularised import SoftFlatOrbit, simulate_soft
+from tps_solver.fda.soft import SoftIntegrator
+
+GAMMA, E, M, ELL = 2.5, 0.45, 2, 0.3
+
+
+def _limits():
+    """One BLAS thread (``threadpoolctl``) as a context manager; a no-op if it is not installed."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:                 # pragma: no cover - timings then use the default BLAS threads
+        return contextlib.nullcontext()
+    return threadpool_limits(1)
+
+
+def drive(integ, t, w, z, t_end, t_eval=()):
+    """Advance ``integ`` to ``t_end`` (the driver loop); returns (t, w, z, events, samples)."""
+    stuck = np.zeros(w.size, bool)
+    events, samples = [], []
+    while t < t_end:
+        s = integ.advance(t, w, z, stuck, t_end, t_eval)
+        t, w, z, stuck = s.t, s.w, s.zeta, s.stuck
+        events += s.events
+        samples += s.samples
+    return t, w, z, events, samples
+
+
+def _timed(fun):
+    wall, cpu = time.perf_counter(), time.process_time()
+    out = fun()
+    return out, time.perf_counter() - wall, time.process_time() - cpu
+
+
+def flat_orbit_errors(periods=50, n_nodes=3, **options):
+    """Entry/exit times of the soft flat orbit against the closed form over ``periods`` periods.
+
+    Returns
+    -------
+    dict
+        ``entry_error``, ``exit_error`` (largest absolute time errors), ``n_events``, ``wall``, ``cpu``.
+    """
+    orb = SoftFlatOrbit(GAMMA, M, E, ELL)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=2.0)
+    ts = orb.t_exit + 0.5 * orb.flight
+    w, z = orb.state(ts)
+    integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options)
+    (_, _, _, events, _), wall, cpu = _timed(
+        lambda: drive(integ, ts, np.full(n_nodes, w), np.full(n_nodes, z), ts + periods * orb.period))
+    imp = np.array([ev[0] for ev in events if ev[2] == "impact"])
+    out = np.array([ev[0] for ev in events if ev[2] == "liftoff"])
+    t_in = orb.t_exit + orb.flight + orb.period * np.round((imp - orb.t_exit - orb.flight) / orb.period)
+    return dict(periods=periods, entry_error=float(np.max(np.abs(imp - t_in))),
+                exit_error=float(np.max(np.abs(out - t_in[:out.size] - orb.tau_c))),
+                n_events=len(events), wall=wall, cpu=cpu)
+
+
+def kink_vs_radau(n_nodes=9, length=8.0, periods=1.0, rtol=1e-11, n_samples=4, **options):
+    """A pinned kink: SoftIntegrator against Radau ``simulate_soft`` (rtol ``rtol``), times and errors.
+
+    Returns
+    -------
+    dict
+        ``state_error`` (largest |dw|, |dzeta| over the samples), ``errors`` per sample, event
+        counts, ``soft_wall``/``soft_cpu``, ``radau_wall``/``radau_cpu`` and their ratios.
+    """
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=length, boundary="pinned")
+    t0 = fl.t0 + 1.0
+    w, z = kink_state(lat, fl, t0, width=2.0)
+    t_end = t0 + periods * fl.period
+    t_eval = t0 + (t_end - t0) * np.arange(1, n_samples + 1) / n_samples
+    integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options)
+    (_, _, _, events, samples), s_wall, s_cpu = _timed(lambda: drive(integ, t0, w, z, t_end, t_eval))
+    ref, r_wall, r_cpu = _timed(lambda: simulate_soft(lat, GAMMA, E, w, z, t0, t_end, cutoff=ELL,
+                                                      t_eval=t_eval, rtol=rtol, atol=0.1 * rtol))
+    errs = [float(max(np.max(np.abs(ws - ref.w_eval[k])), np.max(np.abs(zs - ref.zeta_eval[k]))))
+            for k, (_, ws, zs) in enumerate(samples)]
+    return dict(n_nodes=n_nodes, length=length, periods=periods, state_error=max(errs), errors=errs,
+                soft_impacts=sum(ev[2] == "impact" for ev in events), radau_impacts=int(ref.n_events),
+                soft_wall=s_wall, soft_cpu=s_cpu, radau_wall=r_wall, radau_cpu=r_cpu,
+                ratio_wall=r_wall / s_wall, ratio_cpu=r_cpu / s_cpu, soft_steps=integ.n_steps,
+                radau_steps=int(ref.n_steps))
+
+
+def sensitivity(n_nodes=17, length=8.0, periods=2.0, n_samples=8, eps=1e-13, **options):
+    """Largest state change per output time when the initial velocity of a kink moves by ``eps``.
+
+    Measures the conditioning of the soft model itself (slow contacts amplify perturbations).
+
+    Returns
+    -------
+    list of float
+    """
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=length, boundary="pinned")
+    t0 = fl.t0 + 1.0
+    w, z = kink_state(lat, fl, t0, width=2.0)
+    t_end = t0 + periods * fl.period
+    t_eval = t0 + (t_end - t0) * np.arange(1, n_samples + 1) / n_samples
+    runs = [drive(SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options), t0, w + d, z, t_end, t_eval)[4]
+            for d in (0.0, eps)]
+    return [float(max(np.max(np.abs(a[1] - b[1])), np.max(np.abs(a[2] - b[2])))) for a, b in zip(*runs)]
+
+
+def big_kink(n_nodes=481, dx=0.1, periods=1, **options):
+    """Seconds per period of the soft kink on ``n_nodes`` nodes with spacing ``dx`` (pinned ends).
+
+    Returns
+    -------
+    dict
+        ``wall_per_period``, ``cpu_per_period``, ``n_steps``, ``n_rejected``, event counts.
+    """
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=dx * (n_nodes - 1), boundary="pinned")
+    t0 = fl.t0 + 1.0
+    w, z = kink_state(lat, fl, t0, width=2.0)
+    integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options)
+    (_, _, _, events, _), wall, cpu = _timed(lambda: drive(integ, t0, w, z, t0 + periods * fl.period))
+    kinds = [ev[2] for ev in events]
+    return dict(n_nodes=n_nodes, dx=dx, periods=periods, wall_per_period=wall / periods,
+                cpu_per_period=cpu / periods, n_steps=integ.n_steps, n_rejected=integ.n_rejected,
+                events=len(events), impacts=kinds.count("impact"), liftoffs=kinds.count("liftoff"),
+                sticks=kinds.count("stick"))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--full", action="store_true", help="add the 17-node, 2-period Radau comparison")
+    parser.add_argument("--periods", type=int, default=1, help="periods of the 481-node kink")
+    args = parser.parse_args(argv)
+    with _limits():
+        r = flat_orbit_errors(50)
+        print(f"flat orbit, 50 periods: entry error {r['entry_error']:.2e}, exit error "
+              f"{r['exit_error']:.2e}, {r['n_events']} events, {r['wall']:.2f} s wall / {r['cpu']:.2f} s cpu")
+        r = big_kink(periods=args.periods)
+        print(f"kink n=481 dx=0.1 cutoff=0.3: {r['wall_per_period']:.2f} s wall / {r['cpu_per_period']:.2f} s cpu "
+              f"per period over {r['periods']} period(s); {r['n_steps']} steps ({r['n_rejected']} rejected), "
+              f"{r['events']} events ({r['impacts']} impacts, {r['liftoffs']} lift-offs, {r['sticks']} sticks)")
+        # like for like with Radau (which has no sticking rule): a negligible capture speed
+        cases = [dict(n_nodes=9, length=8.0, periods=1.0)]
+        if args.full:
+            cases.append(dict(n_nodes=17, length=8.0, periods=2.0, n_samples=8))
+        for case in cases:
+            r = kink_vs_radau(**case, stick_speed=1e-8, max_events=5000)
+            print(f"kink n={r['n_nodes']} over {r['periods']:g} periods vs Radau (rtol 1e-11): state error "
+                  f"{r['state_error']:.2e} (per sample {', '.join(f'{x:.1e}' for x in r['errors'])}); "
+                  f"impacts {r['soft_impacts']} / {r['radau_impacts']}; soft {r['soft_wall']:.2f} s wall "
+                  f"{r['soft_cpu']:.2f} s cpu, Radau {r['radau_wall']:.1f} s wall {r['radau_cpu']:.1f} s cpu; "
+                  f"ratio {r['ratio_wall']:.0f} (wall) {r['ratio_cpu']:.0f} (cpu)")
+        if args.full:
+            d = sensitivity(stick_speed=1e-8, max_events=5000)
+            print("kink n=17: state change per sample after a 1e-13 change of the initial w: "
+                  + ", ".join(f"{x:.1e}" for x in d))
+
+
+if __name__ == "__main__":
+    main()
