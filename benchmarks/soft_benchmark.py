@@ -20,8 +20,14 @@ import numpy as np
 
 import tps_solver as tps
 from tps_solver.fda import kink_state
-from tps_solver.fda.regularised import SoftFlatOrbit, simulate_soft
+from tps_solver import simulate
+from tps_solver.flat_soft import SoftFlatOrbit
 from tps_solver.fda.soft import SoftIntegrator
+
+
+def simulate_soft(lattice, Gamma, e, w0, zeta0, t_start, t_end, **kw):
+    """The Radau reference of the soft contact (``simulate(..., method="soft-radau")``)."""
+    return simulate(lattice, Gamma, e, w0, zeta0, t_start, t_end, method="soft-radau", **kw)
 
 GAMMA, E, M, ELL = 2.5, 0.45, 2, 0.3
 

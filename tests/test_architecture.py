@@ -176,7 +176,8 @@ def test_an_option_that_does_not_apply_is_an_error(method):
 @pytest.mark.parametrize("method, option", [
     ("exact", dict(rtol=1e-9)), ("exact", dict(ode_solver="RK45")), ("exact", dict(cutoff=0.3)),
     ("ode", dict(max_steps=10)), ("ode", dict(cutoff=0.3)),
-    ("soft", dict(time_tol=3.0, cutoff=0.3)), ("soft", dict(ode_solver="nonsense", cutoff=0.3)),
+    ("soft-radau", dict(time_tol=3.0, cutoff=0.3)), ("soft", dict(ode_solver="nonsense", cutoff=0.3)),
+    ("soft", dict(samples_per_step=8, cutoff=0.3)),
     ("soft", dict(stick_velocity=1e-3, cutoff=0.3)), ("soft", dict(rho_c=0.5, cutoff=0.3)),
 ])
 def test_options_of_another_method_are_refused(method, option):
