@@ -23,7 +23,21 @@ def _is_real_scalar(value):
 
 
 def check_real(value, name):
-    """Return ``value`` as a finite float or raise ``ValueError`` naming ``name``."""
+    """Return ``value`` as a finite float or raise ``ValueError`` naming ``name``.
+
+    Examples
+    --------
+    >>> check_real(3, "h")
+    3.0
+    >>> check_real(float("nan"), "h")
+    Traceback (most recent call last):
+    ...
+    ValueError: h must be a finite real number, got nan
+    >>> check_real(True, "h")
+    Traceback (most recent call last):
+    ...
+    ValueError: h must be a finite real number, got True
+    """
     if not _is_real_scalar(value):
         raise ValueError(f"{name} must be a finite real number, got {value!r}")
     value = float(value)
@@ -50,14 +64,34 @@ def check_positive(value, name):
 
 
 def check_nonnegative(value, name):
-    """Return ``value`` as a float in [0, inf) or raise ``ValueError``."""
+    """Return ``value`` as a float in [0, inf) or raise ``ValueError``.
+
+    Examples
+    --------
+    >>> check_nonnegative(0, "e")
+    0.0
+    >>> check_nonnegative(-0.5, "e")
+    Traceback (most recent call last):
+    ...
+    ValueError: e must be a finite number >= 0, got -0.5
+    """
     if not _is_real_scalar(value) or not np.isfinite(float(value)) or float(value) < 0:
         raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     return float(value)
 
 
 def check_in_range(value, name, low, high, *, low_closed=True, high_closed=True):
-    """Return ``value`` as a float in the stated interval or raise ``ValueError``."""
+    """Return ``value`` as a float in the stated interval or raise ``ValueError``.
+
+    Examples
+    --------
+    >>> check_in_range(1, "x", 0, 1)
+    1.0
+    >>> check_in_range(1, "x", 0, 1, high_closed=False)
+    Traceback (most recent call last):
+    ...
+    ValueError: x must be a finite number in [0, 1), got 1
+    """
     left = "[" if low_closed else "("
     right = "]" if high_closed else ")"
     message = f"{name} must be a finite number in {left}{low}, {high}{right}, got {value!r}"
@@ -70,7 +104,17 @@ def check_in_range(value, name, low, high, *, low_closed=True, high_closed=True)
 
 
 def check_restitution(value, name="e"):
-    """Return the restitution as a float in [0, 1) or raise ``ValueError``."""
+    """Return the restitution as a float in [0, 1) or raise ``ValueError``.
+
+    Examples
+    --------
+    >>> check_restitution(0.9)
+    0.9
+    >>> check_restitution(1.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: e must be a finite number in [0.0, 1.0), got 1.0
+    """
     return check_in_range(value, name, 0.0, 1.0, low_closed=True, high_closed=False)
 
 
@@ -117,7 +161,17 @@ def _integral_float(value):
 
 
 def check_choice(value, name, choices):
-    """Return ``value`` if it is one of ``choices`` or raise ``ValueError``."""
+    """Return ``value`` if it is one of ``choices`` or raise ``ValueError``.
+
+    Examples
+    --------
+    >>> check_choice("soft", "method", ("point", "soft"))
+    'soft'
+    >>> check_choice("rk4", "method", ("point", "soft"))
+    Traceback (most recent call last):
+    ...
+    ValueError: method must be one of 'point', 'soft', got 'rk4'
+    """
     if not isinstance(value, str) or value not in choices:
         allowed = ", ".join(repr(c) for c in choices)
         raise ValueError(f"{name} must be one of {allowed}, got {value!r}")
@@ -129,6 +183,19 @@ def check_array(value, name, *, shape=None, ndim=None, dtype=float, finite=True)
 
     ``shape`` entries may be ``None`` to accept any length along that axis.
     NaN or infinite entries are rejected when ``finite`` is true.
+
+    Examples
+    --------
+    >>> check_array([1, 2, 3], "x", shape=(None,)).tolist()
+    [1.0, 2.0, 3.0]
+    >>> check_array([[1, 2]], "x", shape=(None,))
+    Traceback (most recent call last):
+    ...
+    ValueError: x must have shape ('any',), got (1, 2)
+    >>> check_array([1.0, float("inf")], "x")
+    Traceback (most recent call last):
+    ...
+    ValueError: x must contain only finite values (no NaN or inf)
     """
     try:
         arr = np.asarray(value)

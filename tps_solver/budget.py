@@ -79,7 +79,13 @@ _FLOP_RATE = 5.0e9       # dense flops per second
 
 
 def format_bytes(n):
-    """``n`` bytes as a short human-readable string, e.g. ``'6.9 GB'``."""
+    """``n`` bytes as a short human-readable string, e.g. ``'6.9 GB'``.
+
+    Examples
+    --------
+    >>> format_bytes(512), format_bytes(1500), format_bytes(6.9e9)
+    ('512 B', '1.5 kB', '6.9 GB')
+    """
     n = float(n)
     for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
         if n < 1000.0 or unit == "PB":
@@ -89,7 +95,15 @@ def format_bytes(n):
 
 
 def format_seconds(s):
-    """``s`` seconds as a short string (s, min, h, days or years)."""
+    """``s`` seconds as a short string (s, min, h, days or years).
+
+    Examples
+    --------
+    >>> format_seconds(30), format_seconds(600), format_seconds(7200)
+    ('30 s', '10 min', '2 h')
+    >>> format_seconds(86400 * 10), format_seconds(86400 * 365 * 5)
+    ('10 days', '5 years')
+    """
     s = float(s)
     if s < 120:
         return f"{s:.2g} s"
@@ -119,7 +133,15 @@ def _available_memory():
 
 def memory_limit():
     """The memory limit in bytes: set by :func:`set_limits`, else 80 % of the available memory
-    (4 GB if the OS does not say)."""
+    (4 GB if the OS does not say).
+
+    Examples
+    --------
+    >>> old = set_limits(memory=2e9)
+    >>> memory_limit()
+    2000000000.0
+    >>> _ = set_limits(**old)
+    """
     if _LIMITS["memory"] is not None:
         return float(_LIMITS["memory"])
     avail = _available_memory()
@@ -127,7 +149,13 @@ def memory_limit():
 
 
 def time_limit():
-    """The run-time limit in seconds (default 3600)."""
+    """The run-time limit in seconds (default 3600).
+
+    Examples
+    --------
+    >>> time_limit()
+    3600.0
+    """
     return float(_LIMITS["time"])
 
 
@@ -145,6 +173,23 @@ def set_limits(memory=None, time=3600.0):
     -------
     dict
         The previous limits (pass them back as keywords to restore).
+
+    Examples
+    --------
+    >>> old = set_limits(memory=1e6, time=10.0)
+    >>> old
+    {'memory': None, 'time': 3600.0}
+    >>> check_cost("Lattice", "n_nodes", 1000, *lattice_cost(1000))
+    Traceback (most recent call last):
+    ...
+    ValueError: n_nodes = 1000 is out of reach for Lattice: estimated memory 32 MB > limit 1 MB ...
+    >>> _ = set_limits(**old)
+    >>> time_limit()
+    3600.0
+    >>> set_limits(time=0)
+    Traceback (most recent call last):
+    ...
+    ValueError: time must be a number of seconds > 0, got 0
     """
     old = dict(_LIMITS)
     if memory is not None and not (isinstance(memory, (int, float)) and memory > 0):
@@ -176,6 +221,15 @@ def check_cost(what, parameter, value, nbytes, seconds, hint=""):
     -------
     tuple of float
         ``(nbytes, seconds)`` when within the limits.
+
+    Examples
+    --------
+    >>> check_cost("solve_kink", "n_harmonics", 30, 1e6, 2.0)
+    (1000000.0, 2.0)
+    >>> check_cost("solve_kink", "n_harmonics", 30, 1e6, 7200.0, hint="use fewer nodes")
+    Traceback (most recent call last):
+    ...
+    ValueError: n_harmonics = 30 is out of reach for solve_kink: estimated run time at least 2 h > limit 60 min (estimate 1 MB, 2 h); lower n_harmonics (use fewer nodes), or raise the limits ...
     """
     mem, tim = memory_limit(), time_limit()
     if nbytes > mem or seconds > tim:
@@ -210,6 +264,15 @@ def tps_cost(n_harmonics, n_nodes, newton_steps=60):
     Returns
     -------
     nbytes, seconds : float
+
+    Examples
+    --------
+    With no Newton steps only the physical checks cost time, 2048 samples x 61 harmonics x 9:
+
+    >>> tps_cost(30, 8, newton_steps=0)
+    (8198720.0, 0.01124352)
+    >>> tps_cost(30, 8)[1]           # + 60 steps x 20 solves x 50 N n / 1e8
+    0.15524352
     """
     N, n = float(n_harmonics), float(n_nodes)
     n_times = max(64.0 * N, 2048.0)
@@ -220,14 +283,30 @@ def tps_cost(n_harmonics, n_nodes, newton_steps=60):
 
 
 def lattice_cost(n_nodes):
-    """Memory (four dense n x n float matrices) and time of building a :class:`~tps_solver.Lattice`."""
+    """Memory (four dense n x n float matrices) and time of building a :class:`~tps_solver.Lattice`.
+
+    Examples
+    --------
+    >>> lattice_cost(1000)            # 4 x 8 x 1000**2 bytes, 4e6 flops at 5 Gflop/s
+    (32000000.0, 0.0008)
+    """
     n = float(n_nodes)
     return 4 * 8.0 * n * n, 4 * n * n / _FLOP_RATE
 
 
 def cycle_cost(n_nodes, newton_steps=60):
     """Memory and time of :func:`~tps_solver.solve_lattice_cycle` (O(n^3) work per residual,
-    evaluated in row blocks of at most about 512 MB, plus ``eigh`` and dense n x n matrices)."""
+    evaluated in row blocks of at most about 512 MB, plus ``eigh`` and dense n x n matrices).
+
+    Examples
+    --------
+    The time is O(n^3): twice the nodes, eight times the time.
+
+    >>> cycle_cost(100)
+    (73120000.0, 14.402...)
+    >>> cycle_cost(200)[1] / cycle_cost(100)[1]
+    8.0
+    """
     n = float(n_nodes)
     rows = min(n, max(1.0, 512e6 / (48.0 * n * n)))
     block = 1.5 * 48.0 * n * n * rows
@@ -237,14 +316,26 @@ def cycle_cost(n_nodes, newton_steps=60):
 
 
 def harmonics_cost(N):
-    """Memory (a few complex vectors of length 2N+1) and time of closed-form harmonics of order N."""
+    """Memory (a few complex vectors of length 2N+1) and time of closed-form harmonics of order N.
+
+    Examples
+    --------
+    >>> harmonics_cost(10)            # 4 complex vectors of 21 entries, 16 bytes each
+    (1344.0, 8.4e-07)
+    """
     N = float(N)
     return 4 * 16.0 * (2 * N + 1), 4 * (2 * N + 1) / _EXP_RATE
 
 
 # --------------------------------------------------------------- BLAS threads
 def small_dense(n_nodes):
-    """True if dense kernels of size ``n_nodes`` are faster on one BLAS thread (n <= SMALL_DENSE)."""
+    """True if dense kernels of size ``n_nodes`` are faster on one BLAS thread (n <= SMALL_DENSE).
+
+    Examples
+    --------
+    >>> small_dense(SMALL_DENSE), small_dense(SMALL_DENSE + 1)
+    (True, False)
+    """
     return n_nodes <= SMALL_DENSE
 
 
