@@ -99,6 +99,15 @@ def model(e=None, t0=None):
     -------
     dict
         ``{"e": e, "t0": t0}`` with ``e = E`` filled in when both were None.
+
+    Examples
+    --------
+    >>> model()
+    {'e': 0.45, 't0': None}
+    >>> model(e=0.3)
+    {'e': 0.3, 't0': None}
+    >>> model(**PAPER_PRESET)
+    {'e': None, 't0': 0.0}
     """
     if e is None and t0 is None:
         e = E

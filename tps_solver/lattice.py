@@ -242,6 +242,17 @@ def lattice_eigenvalues(lattice):
     Returns
     -------
     lam : ndarray of float, shape (n_nodes,)
+
+    Examples
+    --------
+    A uniform Neumann lattice of n nodes and spacing h (half cells at the ends) has the
+    closed-form spectrum ``(4 / h**2) sin^2(k pi / (2 (n - 1)))``, k = 0, ..., n - 1:
+
+    >>> lam = lattice_eigenvalues(Lattice.planar(n_nodes=5, length=4.0))
+    >>> np.round(lam, 6).tolist()
+    [0.0, 0.585786, 2.0, 3.414214, 4.0]
+    >>> bool(np.allclose(lam, 4 * np.sin(np.arange(5) * np.pi / 8) ** 2))
+    True
     """
     v = np.sqrt(lattice.volumes)
     S = -lattice.flux / v[:, None] / v[None, :]

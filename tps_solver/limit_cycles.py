@@ -104,6 +104,19 @@ class StabilityResult(Bunch):
         True when a ``KeyboardInterrupt`` stopped the check; the fields hold what was
         measured so far and ``stable`` is False.
     lattice, method, period, section_time
+
+    Examples
+    --------
+    A stable flat layer: its uniform-mode multipliers have modulus e (the default model,
+    e = 0.45), and point impacts make the verdict hold for this spacing only.
+
+    >>> import numpy as np
+    >>> from tps_solver import FlatLayer, check_stability
+    >>> chk = check_stability(FlatLayer(Gamma=2.5, M=2, e=0.45), periods=3, n_nodes=4)
+    >>> chk.stable, chk.multipliers_kind, np.round(np.abs(chk.uniform_multipliers), 6).tolist()
+    (True, 'uniform mode', [0.45, 0.45])
+    >>> chk.defects.shape, chk.cutoff_limited, chk.interrupted
+    ((3, 2), True, False)
     """
 
     def save(self, path):
