@@ -31,8 +31,12 @@ def test_verdict_drift_and_collapse():
     assert label == "collapses" and rate == pytest.approx(2.0)
 
 
-def test_verdict_undecided_when_defect_stays_large():
-    assert em.verdict([1e-3] * 4, [0.0] * 4, [20.0] * 4, 40.0) == ("undecided", None)
+def test_verdict_stationary_when_frozen_but_not_periodic():
+    assert em.verdict([1e-3] * 4, [6.8] * 4, [20.0] * 4, 40.0) == ("stationary", None)
+
+
+def test_verdict_undecided_when_the_width_still_changes():
+    assert em.verdict([1e-3] * 4, [0.0, 1.0, 0.4, 1.2], [20.0] * 4, 40.0) == ("undecided", None)
 
 
 def test_select_front_points_threshold_thinning_and_control():

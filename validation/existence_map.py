@@ -30,7 +30,9 @@ What is measured
   ``"collapses"`` if one phase took over; ``"drifts"`` if the front moves with
   a bounded disordered width; ``"settles"`` if the defect of the last period is
   below ``settle_tol`` and the disordered width stays below ``front_max``;
-  otherwise ``"undecided"``.  The invasion speed is the least-squares slope of
+  ``"stationary"`` if the width and the front are frozen over the last three
+  periods but the defect is not below ``settle_tol``; otherwise ``"undecided"``.
+  The invasion speed is the least-squares slope of
   the disordered width against the period number before it reaches
   ``invade_fraction`` of the domain, in viscous lengths per period; a kink has
   two fronts (one into each flat layer), so its *front speed* is half that
@@ -305,7 +307,10 @@ def verdict(defects, widths, fronts, extent, settle_tol=1e-6, front_max=4.0, inv
     -------
     label : str
         ``"settles"``, ``"drifts"`` (front moves: one flat layer encroaches on the
-        other), ``"collapses"`` (one phase took over), ``"invades"`` or ``"undecided"``.
+        other), ``"collapses"`` (one phase took over), ``"invades"``, ``"stationary"``
+        (over the last three periods the disordered width is constant and the front
+        does not move, but the defect stays above ``settle_tol``: a localized state
+        that is not T-periodic to that tolerance) or ``"undecided"``.
     rate : float or None
         ``"invades"``: growth of the disordered width per period (least squares over
         the periods before it reaches ``invade_fraction * extent``); ``"drifts"`` and
@@ -340,6 +345,10 @@ def verdict(defects, widths, fronts, extent, settle_tol=1e-6, front_max=4.0, inv
         return "drifts", rate
     if defects[-1] < settle_tol and widths.max() <= front_max:
         return "settles", None
+    tail = slice(-3, None) if widths.size >= 3 else slice(None)
+    if (widths.size >= 3 and np.ptp(widths[tail]) == 0.0 and np.ptp(fronts[tail]) <= drift_tol
+            and widths.max() <= max(front_max, widths[0] + front_max)):
+        return "stationary", None
     return "undecided", None
 
 
@@ -595,7 +604,7 @@ def plot(maps, fronts, config=None, path=None):
     dG = gs[1] - gs[0]
     ee = np.linspace(0.02, 0.62, 121)
     lo, hi = zip(*[tps.FlatLayer.stability_window(float(x), cfg["M"]) for x in ee])
-    marker = {"settles": ("o", "white"), "drifts": ("D", "orange"), "collapses": ("s", "grey"),
+    marker = {"settles": ("o", "white"), "stationary": ("P", "cyan"), "drifts": ("D", "orange"), "collapses": ("s", "grey"),
               "invades": ("x", "red"), "undecided": ("^", "yellow"), "budget exceeded": ("v", "black")}
     e_all = sorted({r["e"] for rs in maps.values() for r in rs})
     e_arr = np.array(e_all)
@@ -854,7 +863,9 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
         "**Verdicts** (per period T: periodicity defect max|x(t+T) - x(t)|; contacts (impact and stick records) per "
         "node against the flat orbit's own count; the disordered width = dx times the number of nodes whose count "
         "differs; the front position from the nearer flat phase of every node): *settles* = defect of the last "
-        f"period < {cfg['settle_tol']:g} and disordered width <= {cfg['front_max']:g} throughout; *drifts* = bounded "
+        f"period < {cfg['settle_tol']:g} and disordered width <= {cfg['front_max']:g} throughout; *stationary* = over "
+        "the last three periods the disordered width is constant and the front does not move, but the defect stays "
+        f"above {cfg['settle_tol']:g} (a localized state that is not T-periodic to that tolerance); *drifts* = bounded "
         "width but the front moves (one flat layer encroaches on the other); *collapses* = one phase took over "
         f"(the localized state is gone); *invades* = the disordered width reaches {cfg['invade_fraction']:g} of the "
         f"domain or grows by more than {cfg['front_max']:g}; its front speed is the least-squares growth rate of the "
@@ -926,8 +937,9 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
     parts += ["", "### 4. Periodic fronts by shooting from the settled state", ""]
     if shots:
         parts += [f"`tps.find_periodic_orbit` (exact point impacts, max_iter {cfg['shoot_max_iter']}, Krylov "
-                  f"dimension {cfg['shoot_krylov']}) from the final time-stepped state of every run that settled "
-                  f"on the coarser grid (dx = {max(cfg['dx']):g}). Contacts: count per period -> number of nodes.",
+                  f"dimension {cfg['shoot_krylov']}, wall-time budget {cfg['shoot_budget']:g} s) from the final "
+                  f"time-stepped state of runs that settled or stayed stationary on the coarser grid "
+                  f"(dx = {max(cfg['dx']):g}). Contacts: count per period -> number of nodes.",
                   "", markdown_table(shots, [("Gamma", "Gamma"), ("e", "e"), ("state", "geometry"), ("dx", "dx"),
                                              ("converged", "converged"), ("status", "status"),
                                              ("residual", "residual"), ("Newton steps", "nit"),
@@ -935,7 +947,7 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
                                              ("leading abs(mu)", lambda r: _fmt_list(r["mu"]) if r["mu"] else None),
                                              ("wall s", "seconds")])]
     else:
-        parts += ["No front settled on the coarser grid, so there was nothing to shoot from."]
+        parts += ["No shooting was run (no front settled on the coarser grid)."]
 
     # costs
     cost = _cost_rows(maps, map_times, fronts, [s["orbit"] for s in fr if s.get("orbit")], timing)
@@ -1019,11 +1031,31 @@ def _comparison(cfg, maps, fr, lo45, hi45):
     return "\n".join(lines)
 
 
-def render(results_path="/tmp/existence_map_results.pkl"):
-    """Rewrite the section and the figure from the results saved by :func:`main` (no computation)."""
+def render(results_path="/tmp/existence_map_results.pkl", extra_shots=None):
+    """Rewrite the section and the figure from the results saved by :func:`main` (no computation).
+
+    The verdicts are recomputed from the stored per-period records with
+    :func:`verdict`; ``extra_shots`` are pickles of ``[((geometry, Gamma, e, dx),
+    shoot result), ...]`` (shootings run after ``main``) merged into the fronts.
+    """
     import pickle
     with open(results_path, "rb") as fh:
         res = pickle.load(fh)
+    cfg = res["cfg"]
+    for f in res["fronts"]:                       # the verdict rules of this version, on the stored records
+        if f.get("defects"):
+            f["verdict"], rate = verdict(f["defects"], f["widths"], f["fronts"], f["extent"], cfg["settle_tol"],
+                                         cfg["front_max"], cfg["invade_fraction"], alive=f["alive"])
+            f["rate"] = rate
+            f["speed"] = None if rate is None else (0.5 * rate if f["verdict"] == "invades" and
+                                                    f["geometry"] == "kink" else abs(rate))
+    for path in extra_shots or ():
+        if os.path.exists(path):
+            with open(path, "rb") as fh:
+                for key, orbit in pickle.load(fh):
+                    for f in res["fronts"]:
+                        if (f["geometry"], f["Gamma"], f["e"], f["dx"]) == key and f.get("cutoff") is None:
+                            f["orbit"] = orbit
     text = _section(res["cfg"], res["maps"], res["map_times"], res["fronts"], res["front_wall"], res["timing"],
                     res["total"])
     fig = plot(res["maps"], res["fronts"], res["cfg"])
