@@ -34,7 +34,13 @@ CORRECTOR_ITER = 12      # Newton corrector steps per continuation point (quadra
 
 
 def interrupted_message(where):
-    """The one wording of status 5 (interrupted; the last accepted iterate is kept)."""
+    """The one wording of status 5 (interrupted; the last accepted iterate is kept).
+
+    Examples
+    --------
+    >>> interrupted_message("in Newton step 3")
+    'interrupted in Newton step 3 (KeyboardInterrupt); the fields are the last accepted iterate (pass tc_initial=sol.tc to resume)'
+    """
     return (f"interrupted {where} (KeyboardInterrupt); the fields are the last accepted iterate "
             "(pass tc_initial=sol.tc to resume)")
 
@@ -44,6 +50,25 @@ def newton(problem, tc, tol, max_iter, callback=None):
 
     A ``KeyboardInterrupt`` returns status 5 with the last accepted iterate (and the
     ``w`` that belongs to it).
+
+    Returns ``(tc, w, status, message, nit, history)``: the contact times, shape (n,), their
+    harmonics, a code of :data:`tps_solver.orbit.STATUS`, the message, the accepted steps and
+    max|F| before and after each step.
+
+    Examples
+    --------
+    The flat layer (every node at its launch phase t0 = 0.3068) is an exact solution; from
+    all contact times shifted by 0.05, Newton returns to it quadratically:
+
+    >>> from tps_solver import FlatLayer
+    >>> from tps_solver.tps.problems import ContinuumProblem
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> problem = ContinuumProblem("axisymmetric", 20.0, 4, flat, 8)
+    >>> tc, w, status, message, nit, history = newton(problem, np.full(4, flat.t0 + 0.05), 1e-12, 20)
+    >>> status, nit, bool(np.allclose(tc, flat.t0, atol=1e-12))
+    (0, 4, True)
+    >>> message
+    'converged: max|F| = ... <= tol = 1.0e-12'
     """
     F, w, phase = problem.residual(tc)
     history = [float(np.max(np.abs(F)))]
@@ -116,6 +141,32 @@ def continuation(make_problem, tc, tol, max_iter, nu_start, callback=None, min_s
 
     Returns (tc, w, status, message, nit, history, path, problem), where
     ``path`` lists (coupling, Newton iterations, residual) of accepted points.
+
+    Examples
+    --------
+    The default kink (8 half-line nodes of spacing 20) from the step pattern at the decoupled
+    coupling (h / 60)^2 = 1/9; the result is that of :func:`~tps_solver.solve_kink`:
+
+    >>> from tps_solver import FlatLayer, solve_kink
+    >>> from tps_solver.tps.problems import ContinuumProblem
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> make = lambda nu: ContinuumProblem("planar", 20.0, 8, flat, 8, coupling=nu)
+    >>> tc, w, status, message, nit, history, path, problem = continuation(
+    ...     make, np.full(8, flat.t0), 1e-10, 50, 1 / 9)
+    >>> status, path[0][0], path[-1][0], problem.coupling
+    (0, 0.111..., 1.0, 1.0)
+    >>> bool(np.allclose(tc, solve_kink(n_harmonics=8).tc[8:], atol=1e-8))
+    True
+
+    On a grid of spacing 2 the branch ends at a fold, at the spacing ~10.9 of
+    :data:`tps_solver.defaults.FOLD_SPACING_TPS`:
+
+    >>> make = lambda nu: ContinuumProblem("planar", 2.0, 3, flat, 8, coupling=nu)
+    >>> out = continuation(make, np.full(3, flat.t0), 1e-10, 50, (2.0 / 60) ** 2)
+    >>> out[2], round(2.0 / math.sqrt(out[7].coupling), 1)
+    (4, 10.9)
+    >>> out[3]
+    'continuation from the decoupled limit stopped at coupling nu_c = ... < 1 ...'
     """
     s = math.log(nu_start)
     problem = make_problem(nu_start)
@@ -176,6 +227,25 @@ def fixed_point(problem, tc, tol, max_iter, scheme, paper_sign, callback=None):
     Convergence is always judged on the consistent residual F(tc^k) (a fresh solve), so an
     iterate that drifted away from w(tc) is never reported as converged.  ``callback(k, tc,
     residual)`` after each sweep; a ``KeyboardInterrupt`` returns status 5 with the last sweep.
+
+    Returns ``(tc, w, status, message, nit, history)`` as :func:`newton`.
+
+    Examples
+    --------
+    Near the flat layer the Picard iteration contracts linearly at
+    rho = (2N/Gamma) / (2N/Gamma + sin t0) = 0.955 for N = 8 (docs/design.md, hazard 3):
+
+    >>> from tps_solver import FlatLayer
+    >>> from tps_solver.tps.problems import ContinuumProblem
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> problem = ContinuumProblem("axisymmetric", 20.0, 4, flat, 8)
+    >>> tc, w, status, message, nit, history = fixed_point(
+    ...     problem, np.full(4, flat.t0 + 1e-3), 1e-10, 20, "picard", 1)
+    >>> status, message
+    (1, 'iteration limit (20) reached')
+    >>> rho = (16 / 2.5) / (16 / 2.5 + math.sin(flat.t0))
+    >>> round(history[-1] / history[-2], 3), round(rho, 3)
+    (0.955, 0.955)
     """
     F, w, _ = problem.residual(tc)
     history = [float(np.max(np.abs(F)))]

@@ -16,7 +16,44 @@ __all__ = ["ContinuumProblem", "LatticeProblem", "node_positions", "decoupled_sp
 
 # --------------------------------------------------------------------- problem
 class ContinuumProblem:
-    """The discretised TPS problem on the solved half-domain."""
+    """The discretised TPS problem on the solved half-domain.
+
+    Parameters
+    ----------
+    geometry : {"planar", "axisymmetric"}
+        Kink (staggered nodes on x > 0) or oscillon (nodes r_j = j h).
+    h : float
+        Node spacing.
+    n_nodes : int
+        Unknown nodes.
+    flat : FlatLayer
+        The far-field flat layer (Gamma, M, t0).
+    N : int
+        Harmonics n = 1..N.
+    coupling : float
+        The coupling nu_c scaling the Laplacian (1: the problem as posed).
+    symmetry : {"kink", "even"}
+        Planar only.
+
+    Examples
+    --------
+    Every node at the flat phase t0 solves the contact condition (46) exactly; the kink
+    step tc = t0 on x > 0 (the mirror at t0 + T/2) misses it only near x = 0:
+
+    >>> import numpy as np
+    >>> from tps_solver import FlatLayer
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> problem = ContinuumProblem("axisymmetric", 20.0, 4, flat, 8)
+    >>> F, w, phase = problem.residual(np.full(4, flat.t0))
+    >>> bool(np.max(np.abs(F)) < 1e-14), w.shape
+    (True, (8, 4))
+    >>> kink = ContinuumProblem("planar", 20.0, 8, flat, 8)
+    >>> kink.x.tolist()[:3]
+    [10.0, 30.0, 50.0]
+    >>> F = kink.residual(np.full(8, flat.t0))[0]
+    >>> round(float(F[0]), 4), bool(np.max(np.abs(F[3:])) < 1e-12)
+    (-0.0103, True)
+    """
 
     def __init__(self, geometry, h, n_nodes, flat, N, coupling=1.0, symmetry="kink"):
         self._setup_forcing(geometry, flat, N, coupling)
@@ -98,7 +135,34 @@ class ContinuumProblem:
 
 
 class LatticeProblem(ContinuumProblem):
-    """The TPS on an FDA lattice: the continuum Laplacian replaced by the lattice operator."""
+    """The TPS on an FDA lattice: the continuum Laplacian replaced by the lattice operator.
+
+    Parameters
+    ----------
+    lattice : Lattice
+    flat : FlatLayer
+    N : int
+    coupling : float
+        Scales the lattice operator.
+
+    Examples
+    --------
+    On a Neumann lattice a uniform shift of the contact times is a flat layer of another
+    phase: F = cos t0 - cos tc at every node, and dF/dtc applied to ones is sin tc.
+
+    >>> import math
+    >>> import numpy as np
+    >>> from tps_solver import FlatLayer, Lattice
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> problem = LatticeProblem(Lattice.planar(n_nodes=8, length=140.0), flat, 8)
+    >>> tc = np.full(8, flat.t0 + 0.05)
+    >>> F, w, phase = problem.residual(tc)
+    >>> bool(np.allclose(F, math.cos(flat.t0) - math.cos(flat.t0 + 0.05), atol=1e-12))
+    True
+    >>> J, slope = problem.jacobian_operator(tc, w, phase)
+    >>> bool(np.allclose(J.matvec(np.ones(8)), math.sin(flat.t0 + 0.05), atol=1e-12))
+    True
+    """
 
     def __init__(self, lattice, flat, N, coupling=1.0):
         self._setup_forcing(lattice.geometry, flat, N, coupling)
@@ -111,10 +175,29 @@ class LatticeProblem(ContinuumProblem):
 
 
 def decoupled_spacing(M):
-    """Node spacing at which the slowest harmonic couples neighbours by < e^-30."""
+    """Node spacing at which the slowest harmonic couples neighbours by < e^-30.
+
+    Examples
+    --------
+    The slowest harmonic n = 1 decays like exp(-x sqrt(1 / (2M))), so the spacing is
+    30 sqrt(2M):
+
+    >>> decoupled_spacing(2)
+    60.0
+    >>> round(decoupled_spacing(1), 4)
+    42.4264
+    """
     return 30.0 / math.sqrt(0.5 / M)
 
 
 def node_positions(geometry, h, n_nodes):
-    """Unknown nodes on the solved half-domain: staggered (j + 1/2) h for kinks, j h for oscillons."""
+    """Unknown nodes on the solved half-domain: staggered (j + 1/2) h for kinks, j h for oscillons.
+
+    Examples
+    --------
+    >>> node_positions("planar", 20.0, 3).tolist()
+    [10.0, 30.0, 50.0]
+    >>> node_positions("axisymmetric", 20.0, 3).tolist()
+    [0.0, 20.0, 40.0]
+    """
     return (np.arange(n_nodes) + 0.5) * h if geometry == "planar" else np.arange(n_nodes) * h
