@@ -29,6 +29,37 @@ def physical_checks(sol, n_times=None):
     ``all_pass`` also requires ``sol.converged``: the fields of a run that did not converge
     are not a solution, whatever they look like (``converged`` is repeated in the result).
     The series is evaluated at ``max(64 N, 2048)`` times in blocks of bounded memory.
+
+    Parameters
+    ----------
+    sol : PeriodicSolution
+        A TPS result (``period``, ``N``, ``M``, ``w_hat``, ``tc``, ``t0``, ``Gamma``, ``height``).
+    n_times : int, optional
+        Sample times per period.
+
+    Returns
+    -------
+    Bunch
+        ``min_zeta``, ``zeta_nonnegative``, ``contacts_per_period`` (int, shape (n_nodes,)),
+        ``single_contact``, ``tc_is_steep_crossing`` (bool, shape (n_nodes,)), ``selected_tc``,
+        ``jump_ratio`` (measured jump / (T/Gamma), shape (n_nodes,)), ``restitution_residual``,
+        ``converged`` and ``all_pass``.
+
+    Examples
+    --------
+    The default kink: one contact per node and period, a jump of T/Gamma at each:
+
+    >>> from tps_solver import solve_kink
+    >>> chk = physical_checks(solve_kink(n_harmonics=8))
+    >>> chk.all_pass, chk.contacts_per_period.tolist() == [1] * 16, chk.restitution_residual < 1e-5
+    (True, True, True)
+
+    The step guess, not iterated (``max_iter=0``), looks single-contact but is no solution:
+
+    >>> guess = solve_kink(n_harmonics=8, max_iter=0, continuation=False)
+    >>> chk = physical_checks(guess)
+    >>> chk.single_contact, chk.converged, chk.all_pass
+    (True, False, False)
     """
     T, N, M = sol.period, sol.N, sol.M
     n_times = n_times or max(64 * N, 2048)

@@ -116,6 +116,23 @@ class LatticeCycle(PeriodicOrbit):
     continuation_path : ndarray of float, shape (k, 3)
         (coupling, Newton steps, residual) per accepted continuation point.
     time : float
+
+    Examples
+    --------
+    The default lattice (8 nodes, spacing 20): every node leaves the plate once per period
+    with the velocity jump J = T/Gamma = 4 pi / 2.5, at height zero:
+
+    >>> from tps_solver import Lattice, solve_lattice_cycle
+    >>> cyc = solve_lattice_cycle(Lattice.planar(n_nodes=8, length=140.0))
+    >>> cyc.converged, cyc.status, cyc.coupling, round(cyc.J, 6), round(4 * math.pi / 2.5, 6)
+    (True, 0, 1.0, 5.026548, 5.026548)
+    >>> w = cyc.velocity(np.array([cyc.tc[0] - 1e-9, cyc.tc[0]]))[:, 0]
+    >>> round(float(w[1] - w[0]), 6)
+    5.026548
+    >>> bool(np.max(np.abs(np.diag(cyc.height(cyc.tc)))) < 1e-12)
+    True
+    >>> round(float(cyc.eigenvalues[0]), 12), bool(abs(cyc.eigenvalues[-1]) < 1e-12)  # -4/20**2, zero mode
+    (-0.01, True)
     """
 
     def velocity(self, t):

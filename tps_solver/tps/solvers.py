@@ -126,7 +126,42 @@ def _suggest_grid(geometry, size, n_nodes, lattice=None):
 
 
 def next_steps(status, flat, geometry, size, n_nodes, lattice=None):
-    """One sentence on what to do after a run that did not converge ('' for status 0 and 5)."""
+    """One sentence on what to do after a run that did not converge ('' for status 0 and 5).
+
+    Parameters
+    ----------
+    status : int
+        A code of :data:`tps_solver.orbit.STATUS`.
+    flat : FlatLayer
+        The far-field flat layer.
+    geometry : {"planar", "axisymmetric"}
+    size : float
+        ``half_length`` (planar) or ``r_max`` (axisymmetric).
+    n_nodes : int
+    lattice : Lattice, optional
+        For the lattice solvers (the fold spacing of the lattice, 13.6, applies).
+
+    Returns
+    -------
+    str
+        Starts with a space, so it can be appended to a message.
+
+    Examples
+    --------
+    >>> from tps_solver import FlatLayer
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> next_steps(0, flat, "planar", 150.0, 8)
+    ''
+    >>> print(next_steps(4, flat, "planar", 5.0, 40))
+     What to try: single-contact kinks exist only for node spacing above about 10.9 viscous
+     lengths (README, 'Results'), so use a grid with node spacing >= 20, e.g. half_length=790
+     for n_nodes=40, or integrate this grid with the FDA and a soft contact
+     (tps.simulate(..., method='soft', cutoff=...)).
+    >>> print(next_steps(2, FlatLayer(Gamma=2.5, M=2, t0=0.0), "planar", 150.0, 8))
+     What to try: the far-field flat layer is marginal (Floquet multiplier 1 at t0 = 0: the fold
+     of the flat orbit, where the paper's preset t0 = 0 sits), so no branch starts there; give an
+     interior restitution such as e=0.45 (the default) instead.
+    """
     grid = _suggest_grid(geometry, size, n_nodes, lattice)
     fold = defaults.FOLD_SPACING_LATTICE if lattice is not None else defaults.FOLD_SPACING_TPS
     what = "kinks" if geometry == "planar" else "oscillons"
@@ -271,7 +306,39 @@ def _run(make_problem, h, flat, N, tc, tol, max_iter, scheme, paper_sign, min_sh
 
 
 def lattice_initial_tc(lattice, flat, tc_initial, r_core):
-    """Initial contact times on a lattice: the user's, or the kink step / oscillon core guess."""
+    """Initial contact times on a lattice: the user's, or the kink step / oscillon core guess.
+
+    Parameters
+    ----------
+    lattice : Lattice
+    flat : FlatLayer
+        The far-field flat layer (launch phase ``t0``, period ``T``).
+    tc_initial : None, array_like of float (n_nodes,), or callable
+        A callable receives the node coordinates.
+    r_core : float
+        Core radius of the axisymmetric guess.
+
+    Returns
+    -------
+    ndarray of float, shape (n_nodes,)
+
+    Examples
+    --------
+    The kink step: t0 = 0.3068 for x >= 0, t0 + T/2 = 0.3068 + 2 pi for x < 0; the oscillon
+    core takes t0 + T/2 inside r_core:
+
+    >>> from tps_solver import FlatLayer, Lattice
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> np.round(lattice_initial_tc(Lattice.planar(n_nodes=4, length=60.0), flat, None, 1.0), 4).tolist()
+    [6.59, 6.59, 0.3068, 0.3068]
+    >>> core = Lattice.axisymmetric(n_nodes=4, r_max=60.0, grid="uniform")
+    >>> np.round(lattice_initial_tc(core, flat, None, 1.0), 4).tolist()
+    [6.59, 0.3068, 0.3068, 0.3068]
+    >>> lattice_initial_tc(core, FlatLayer(Gamma=2.5, M=1, e=0.45), None, 1.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: tc_initial must be given for odd M (got M = 1): t0 + T/2 is a flat-layer phase only for even M
+    """
     x = np.asarray(lattice.nodes, dtype=float)
     if tc_initial is not None:
         return _initial_tc(tc_initial, x, None).astype(float)
