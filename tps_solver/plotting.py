@@ -160,13 +160,29 @@ def plot_solution(sol, directory, n_times=160, prefix=None):
 
     Examples
     --------
-    >>> import os, tempfile
+    The figures are those of :func:`solution_figures`.  Here ``Figure.savefig`` is replaced by
+    a recorder, so nothing is rendered or written (rendering the three figures takes seconds);
+    a real call is ``plot_solution(sol, "out")``:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from unittest import mock
+    >>> from matplotlib.figure import Figure
     >>> from tps_solver import solve_kink
     >>> sol = solve_kink(n_harmonics=6, n_nodes=6)
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     paths = plot_solution(sol, d, n_times=16)
-    ...     print([os.path.basename(p) for p in paths], all(os.path.getsize(p) > 0 for p in paths))
-    ['kink_zeta.png', 'kink_w_minus_W.png', 'kink_snapshots.png'] True
+    >>> open_before = plt.get_fignums()
+    >>> with mock.patch.object(Figure, "savefig", autospec=True) as savefig:
+    ...     paths = plot_solution(sol, "out", n_times=16)
+    >>> paths
+    ['out/kink_zeta.png', 'out/kink_w_minus_W.png', 'out/kink_snapshots.png']
+    >>> [c.args[1] for c in savefig.call_args_list] == paths, savefig.call_args.kwargs
+    (True, {'dpi': 120})
+    >>> for c in savefig.call_args_list:
+    ...     print(c.args[0].axes[0].get_title().splitlines()[-1])
+    height $\\zeta$ over one period
+    $w - W$ over one period
+    profiles $\\zeta(x)$ at 8 times per period
+    >>> plt.get_fignums() == open_before                      # every figure closed
+    True
     """
     plt = _pyplot()
     prefix = prefix or ("kink" if sol.geometry == "planar" else "oscillon")
@@ -236,8 +252,8 @@ def plot_growth_rates(path, kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_point
 
     Parameters
     ----------
-    path : str
-        Output file (PNG).
+    path : str or binary file-like
+        Output file (PNG), or an open binary stream (anything ``Figure.savefig`` accepts).
     kh_min, kh_max : float
     n_modes : int
         Modes per family.
@@ -246,15 +262,32 @@ def plot_growth_rates(path, kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_point
 
     Returns
     -------
-    path : str
+    path : str or file-like
+        ``path`` as given.
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     path = plot_growth_rates(os.path.join(d, "rates.png"), n_modes=1, n_points=5)
-    ...     print(os.path.basename(path), os.path.getsize(path) > 0)
-    rates.png True
+    Here ``Figure.savefig`` is replaced by a recorder, so nothing is rendered or written (the
+    first rendering of a figure costs a second or more); a real call is
+    ``plot_growth_rates("rates.png")``, and ``path`` may also be a stream such as
+    ``io.BytesIO()``:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from unittest import mock
+    >>> from matplotlib.figure import Figure
+    >>> open_before = plt.get_fignums()
+    >>> with mock.patch.object(Figure, "savefig", autospec=True) as savefig:
+    ...     path = plot_growth_rates("rates.png", n_modes=1, n_points=3)
+    >>> fig, = (c.args[0] for c in savefig.call_args_list)    # one figure, saved once
+    >>> path, savefig.call_args.args[1:], savefig.call_args.kwargs
+    ('rates.png', ('rates.png',), {'dpi': 120})
+    >>> for line in fig.axes[0].lines:
+    ...     print(line.get_label())
+    sinuous mode 1
+    varicose mode 1
+    $\\nu k^2$ (trivial root $\\gamma=0$, not an eigenvalue)
+    >>> plt.get_fignums() == open_before                      # the figure is closed
+    True
     """
     plt = _pyplot()
     fig = growth_rates_figure(kh_min, kh_max, n_modes, nu, n_points)
