@@ -22,7 +22,7 @@ Models (the rules of :func:`tps_solver.simulate` for a uniform state)
     :math:`\beta = -\ln e/\tau_c`, so every contact lasts exactly
     :math:`\tau_c` and returns :math:`w^+ = -e\,w^-`.  Needs :math:`e > 0`
     (:math:`\beta` is singular at :math:`e = 0`) (docs/design.md, hazard 11).
-    This is the model of ``simulate(..., method="soft")``, which has no
+    This is the model of ``simulate(..., method="soft-radau")``, which has no
     sticking rule: a ball micro-chatters through a sticking phase (each
     contact lasts :math:`\tau_c`, speeds fall by :math:`e` per contact) and
     leaves at the end of the contact in progress when :math:`g` turns
@@ -38,7 +38,7 @@ closed form (the height written with :math:`1-\cos\Delta` and
 precision), the next impact as the first root of the height on pieces where it
 is monotone (split at the zeros of :math:`g` and of :math:`w`), contacts in
 closed form.  ``integrator="simulate"`` runs :func:`tps_solver.simulate`
-(``method="exact"`` or ``method="soft"``) on a uniform 3-node Neumann lattice,
+(``method="exact"`` or ``method="soft-radau"``) on a uniform 3-node Neumann lattice,
 whose coupling vanishes on a uniform state; it is the cross-check (the tests
 compare the two) and the place where a faster soft integrator plugs in.
 
@@ -356,7 +356,7 @@ class _SimulateBall:
         w, z, mode = state
         kw = dict(t_start=t_section, t_end=t_section + _TWO_PI)
         if self.model == "soft":
-            run = simulate(self.lattice, self.Gamma, self.e, np.full(3, w), np.full(3, z), method="soft",
+            run = simulate(self.lattice, self.Gamma, self.e, np.full(3, w), np.full(3, z), method="soft-radau",
                            cutoff=self.cutoff, **kw)
         else:
             run = simulate(self.lattice, self.Gamma, self.e, np.full(3, w), np.full(3, z), method="exact",
@@ -656,7 +656,7 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
         Soft model only, closed form only: a contact entered at a speed at or
         below ``stick_velocity`` ends at rest, held while :math:`g \le 0`
         (the sticking rule proposed in (docs/design.md, hazard 10)).  The default
-        ``False`` is the model of ``simulate(..., method="soft")``, which has no
+        ``False`` is the model of ``simulate(..., method="soft-radau")``, which has no
         such rule: a ball then micro-chatters through every sticking phase and
         leaves it at a phase set by the chatter, so sticking does not reset it.
     max_events_per_cycle : int
