@@ -9,6 +9,7 @@
 * no reference to a "hazard N" or "issue N" that is not in the repository.
 """
 import ast
+import functools
 import pathlib
 import re
 
@@ -34,9 +35,14 @@ def _sources(*dirs):
         yield from sorted((ROOT / d).rglob("*.py"))
 
 
+@functools.lru_cache(maxsize=None)
+def _tree(path):
+    return ast.parse(path.read_text(), filename=str(path))
+
+
 def _imports(path):
     """(target module, imported names) for every import statement in ``path``."""
-    tree = ast.parse(path.read_text(), filename=str(path))
+    tree = _tree(path)
     name = _module_name(path)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     out = []
@@ -116,7 +122,7 @@ def test_no_private_names_imported_across_modules():
 
 
 def _calls(path, owner, attr):
-    tree = ast.parse(path.read_text(), filename=str(path))
+    tree = _tree(path)
     hits = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Attribute) and node.attr == attr:
