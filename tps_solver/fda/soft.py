@@ -103,6 +103,7 @@ soft contact or release of a held node, ``w_before`` = velocity at exit) and
 the capture).
 """
 import collections
+import inspect
 import math
 
 import mpmath
@@ -148,7 +149,12 @@ def radau_iia(s):
         for _ in range(s - 1):                      # differentiate s-1 times
             deg = len(p) - 1
             p = [p[i] * (deg - i) for i in range(deg)]
-        roots = mpmath.polyroots(p, maxsteps=200, extraprec=80) if len(p) > 2 else [-p[1] / p[0]]
+        if len(p) <= 2:
+            roots = [-p[1] / p[0]]
+        elif "asc" in inspect.signature(mpmath.polyroots).parameters:      # mpmath >= 1.4
+            roots = mpmath.polyroots(p[::-1], maxsteps=200, extraprec=80, asc=True)
+        else:
+            roots = mpmath.polyroots(p, maxsteps=200, extraprec=80)
         c = sorted(mpmath.re(r) for r in roots)
         c[-1] = x(1)
         V = mpmath.matrix([[ci ** m for m in range(s)] for ci in c])
