@@ -43,8 +43,8 @@ Eigenvalues of the monodromy :math:`J = \partial P/\partial x` at the converged 
 all of them from a central-difference Jacobian when there are at most ``dense_max``
 unknowns, otherwise the ``n_multipliers`` leading ones as Ritz values of an Arnoldi
 factorisation of fixed dimension with the matrix-free product (no implicit restarts:
-the cost is known in advance, and restarts do not converge when the spectrum is
-clustered near 0 and the products carry finite-difference noise).  With point impacts
+the cost is known in advance, whereas restarts to a tolerance have no useful bound
+when the spectrum is clustered near 0 and the products carry finite-difference noise).  With point impacts
 the map is only piecewise smooth where several nodes touch the plate (nearly)
 together: the post-impact state depends on the order of the impacts
 (docs/design.md, hazard 7).  Before computing multipliers, forward and backward
@@ -800,8 +800,8 @@ def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, d
             return (pm(x + hh * v)[0] - Px) / hh
 
         # Arnoldi of fixed dimension (one product per step, cost known in advance); ARPACK's
-        # implicit restarts do not converge to its tolerance when the spectrum is clustered
-        # near 0 (sticking) and the products carry finite-difference noise.
+        # implicit restarts have no useful bound on the number of products when the spectrum
+        # is clustered near 0 (sticking) and the products carry finite-difference noise.
         k = min(n_mult, 2 * m)
         dim = min(2 * m, max(2 * k + 1, 20))
         V = np.zeros((2 * m, dim + 1))
