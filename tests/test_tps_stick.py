@@ -169,3 +169,13 @@ def test_lattice_kink_against_fda():
     chk = ts.check_with_fda(sol, periods=2)
     assert np.all(chk.events_per_period == 2)
     assert chk.contact_error < 1e-8 and chk.liftoff_error < 1e-8
+
+
+@pytest.mark.slow
+def test_lattice_kink_gamma_4p4_against_fda():
+    """Gamma = 4.4, dx = 2: pattern from a 160-period FDA run; the FDA keeps the TPS times."""
+    lat = tps.Lattice.planar(n_nodes=21, length=40.0)
+    sol = ts.solve_stick_lattice(lat, 4.4, periods=160, n_basis=6, tol=1e-10)
+    assert sol.converged and sol.checks.all_pass
+    chk = ts.check_with_fda(sol, periods=2)
+    assert chk.contact_error < 1e-8 and chk.liftoff_error < 1e-8
