@@ -68,8 +68,8 @@ balanced against the neighbours at their midpoint.
 
 The nonlinear system is solved by Newton's method with a dense Jacobian: exact in
 the linear unknowns (impulses, reaction coefficients), analytic in the impulse
-times (the impulse kernels kink where two impacts coincide, docs/design.md,
-hazard 7), by forward differences in the remaining smooth time dependence, where
+times (the impulse kernels kink where two impacts coincide: docs/design.md, hazard 7),
+by forward differences in the remaining smooth time dependence, where
 only the rows and columns a time touches are recomputed; the Jacobian is reused
 while it contracts the residual tenfold per step.
 
