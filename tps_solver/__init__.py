@@ -20,6 +20,8 @@ Public API (see ``README.md`` for a tour):
 * :func:`find_periodic_orbit` -- periodic orbits of any contact pattern by shooting;
 * :func:`continue_branch`, :class:`Branch` -- continuation with folds and period doublings;
 * :func:`flat_basins` -- basins of attraction of the bouncing ball (one node);
+* :func:`solve_stick_flat`, :func:`solve_stick_lattice` -- the TPS for impact-and-stick contacts
+  (e -> 0), flat and on Neumann lattices;
 * :func:`sweep` -- parameter sweeps on any ``concurrent.futures.Executor`` (Dask too), resumable.
 
 See ``ARCHITECTURE.md`` for the layers and what each module owns.
@@ -57,6 +59,8 @@ _LAZY = {
     "load_branch": "continuation",
     "sweep": "parallel",
     "flat_basins": "basins",
+    "solve_stick_flat": "tps_stick",
+    "solve_stick_lattice": "tps_stick",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]
