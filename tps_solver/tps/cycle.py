@@ -44,7 +44,7 @@ from ..flight import phi1, taylor_tail
 from ..lattice import Lattice
 from ..orbit import PeriodicOrbit
 from .engine import continuation as run_continuation, newton
-from .problems import decoupled_spacing
+from .problems import bouncing_far_field, decoupled_spacing
 from .solvers import lattice_initial_tc, next_steps
 
 #: Bytes of one block of the (rows x nodes x modes) tensors of the cycle residual (about six live
@@ -300,7 +300,7 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
     M = check_int(M, "M", minimum=1)
     if e is not None:
         e = check_restitution(e, "e")
-    flat = FlatLayer(Gamma, M, **defaults.model(e, t0))
+    flat = bouncing_far_field(Gamma, M, **defaults.model(e, t0))
     tol = check_positive(tol, "tol")
     max_iter = check_int(max_iter, "max_iter", minimum=0)
     r_core = check_real(r_core, "r_core")

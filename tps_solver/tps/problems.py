@@ -11,7 +11,7 @@ from ..contact import contact_times
 from ..harmonics import centred, g_hat, mode_numbers
 from ..helmholtz import HelmholtzSolver, LatticeHelmholtz
 
-__all__ = ["ContinuumProblem", "LatticeProblem", "node_positions", "decoupled_spacing"]
+__all__ = ["ContinuumProblem", "LatticeProblem", "node_positions", "decoupled_spacing", "bouncing_far_field"]
 
 
 # --------------------------------------------------------------------- problem
@@ -172,6 +172,38 @@ class LatticeProblem(ContinuumProblem):
         self.symmetry = None
         self.lattice = lattice
         self.solver = LatticeHelmholtz(lattice, self.M, N, coupling=coupling)
+
+
+def bouncing_far_field(Gamma, M, e=None, t0=None):
+    """The single-bounce flat layer (17)-(19) that the single-contact TPS needs as its far field.
+
+    Raises
+    ------
+    ValueError
+        Naming ``e`` when the flat layer has no single-bounce orbit there (for instance
+        ``e = 0``, where every period ends in sticking), with the solvers that handle it.
+
+    Examples
+    --------
+    >>> round(bouncing_far_field(2.5, 2, e=0.45).t0, 6)
+    0.30678
+    >>> bouncing_far_field(4.1, 2, e=0.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: e = 0.0 gives no single-bounce flat layer at Gamma = 4.1, M = 2 (...); ...
+    """
+    from ..flat import FlatLayer
+
+    try:
+        return FlatLayer(Gamma, M, e=e, t0=t0, pattern="bounce")
+    except ValueError as exc:
+        if e is None:
+            raise
+        raise ValueError(
+            f"e = {e} gives no single-bounce flat layer at Gamma = {Gamma:g}, M = {M} ({exc}); the "
+            "single-contact TPS needs one impact with rebound per node and period. Where the layer "
+            "sticks (e -> 0) use tps.solve_stick_lattice (the impact-and-stick TPS) or "
+            "tps.find_periodic_orbit (shooting, any contact pattern)") from None
 
 
 def decoupled_spacing(M):

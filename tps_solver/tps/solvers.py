@@ -68,7 +68,7 @@ from ..harmonics import centred, evaluate, height_from_velocity, mode_numbers, s
 from ..lattice import Lattice
 from .checks import physical_checks
 from .engine import SCHEMES, continuation as run_continuation, fixed_point, newton
-from .problems import ContinuumProblem, LatticeProblem, decoupled_spacing, node_positions
+from .problems import ContinuumProblem, LatticeProblem, bouncing_far_field, decoupled_spacing, node_positions
 from .result import PeriodicSolution
 
 __all__ = ["solve_kink", "solve_oscillon", "solve_lattice", "lattice_initial_tc", "next_steps"]
@@ -84,7 +84,7 @@ def _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign
     M = check_int(M, "M", minimum=1)
     if e is not None:
         e = check_restitution(e, "e")
-    flat = FlatLayer(Gamma, M, **defaults.model(e, t0))
+    flat = bouncing_far_field(Gamma, M, **defaults.model(e, t0))
     N = check_int(n_harmonics, "n_harmonics", minimum=1)
     tol = check_positive(tol, "tol")
     max_iter = check_int(max_iter, "max_iter", minimum=0)
