@@ -1,5 +1,4 @@
 """Shared options and summary of the ``kink`` and ``oscillon`` commands."""
-import math
 import os
 
 import numpy as np

@@ -39,7 +39,6 @@ from .. import io
 from .. import defaults
 from .._checks import check_int, check_positive, check_real, check_restitution
 from ..budget import blas_threads, check_cost, cycle_cost, small_dense
-from ..flat import FlatLayer
 from ..flight import phi1, taylor_tail
 from ..lattice import Lattice
 from ..orbit import PeriodicOrbit

@@ -63,7 +63,6 @@ import numpy as np
 from .. import defaults
 from .._checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from ..budget import check_cost, tps_cost
-from ..flat import FlatLayer
 from ..harmonics import centred, evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
 from ..lattice import Lattice
 from .checks import physical_checks
