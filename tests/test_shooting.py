@@ -12,7 +12,7 @@ import pytest
 from scipy.optimize import brentq
 
 import tps_solver as tps
-from tps_solver.shooting import PeriodicOrbit, find_periodic_orbit
+from tps_solver.shooting import ShootingOrbit, find_periodic_orbit
 
 G, E, M = 2.5, 0.45, 2
 
@@ -195,7 +195,7 @@ def test_guess_types_give_the_same_orbit(coarse, coarse_orbit):
         orb = find_periodic_orbit(lat, Gamma=G, M=M, e=E, guess=guess, multipliers=False)
         assert orb.converged
         assert np.max(np.abs(orb.height([o.t_start])[0] - o.zeta0)) <= 1e-10
-    assert isinstance(o, PeriodicOrbit)
+    assert isinstance(o, ShootingOrbit) and isinstance(o, tps.PeriodicOrbit)
     # a spectral TPS solution (truncated at N = 16, so off the orbit by ~1e-2) as the guess
     spec = tps.solve_lattice(lat, Gamma=G, M=M, e=E, t0=None, n_harmonics=16)
     orb = find_periodic_orbit(lat, Gamma=G, M=M, e=E, guess=spec, multipliers=False)
@@ -241,7 +241,7 @@ def test_keyboard_interrupt_returns_the_last_iterate(coarse, coarse_orbit):
 def test_event_bound_stops_with_a_clear_message(coarse):
     lat, cyc = coarse
     orb = find_periodic_orbit(lat, Gamma=G, M=M, e=E, guess=cyc, max_events_per_period=5)
-    assert not orb.converged and orb.status == 3
+    assert not orb.converged and orb.status == 6
     assert "max_events_per_period" in orb.message
 
 

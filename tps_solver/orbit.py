@@ -16,10 +16,14 @@ code  meaning
 0     converged: the residual met the tolerance
 1     iteration limit reached
 2     stagnation: no decrease along the Newton direction, or a non-finite step
-3     the contact-time computation failed (no jump-like up-crossing)
+3     the contact computation failed (no jump-like up-crossing of (46), or the
+      FDA period map's contact search stalled)
 4     the branch ended before the requested parameter (continuation stopped,
       most likely at a fold); the fields hold the last converged point
 5     interrupted by the user (``KeyboardInterrupt``); the last iterate is kept
+6     event bound exceeded in the period map (chattering or Zeno behaviour)
+7     periodic on the free nodes, but a node stuck at the section is free after
+      one period (choose another section)
 ====  ==========================================================================
 """
 import numpy as np
@@ -32,9 +36,11 @@ STATUS = {
     0: "converged",
     1: "iteration limit reached",
     2: "stagnation (no decrease along the Newton direction)",
-    3: "contact-time computation failed",
+    3: "contact computation failed",
     4: "branch ended before the requested parameter (fold)",
     5: "interrupted",
+    6: "event bound exceeded",
+    7: "stuck set changed at the section",
 }
 
 

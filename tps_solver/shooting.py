@@ -58,27 +58,29 @@ import time
 
 import numpy as np
 
-from ._result import Bunch
+from .orbit import STATUS, PeriodicOrbit
 from ._checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 
-__all__ = ["find_periodic_orbit", "PeriodicOrbit"]
-
-METHODS = ("exact", "ode", "soft")
-STATUS = {0: "converged", 1: "iteration limit", 2: "Newton stagnated", 3: "event bound exceeded",
-          4: "period map failed", 5: "interrupted", 6: "stuck set changed"}
+__all__ = ["find_periodic_orbit", "ShootingOrbit"]
 
 
-class PeriodicOrbit(Bunch):
-    r"""Result of :func:`find_periodic_orbit`.
+
+
+class ShootingOrbit(PeriodicOrbit):
+    r"""Result of :func:`find_periodic_orbit`: a periodic orbit of the FDA, any contact pattern.
+
+    A :class:`~tps_solver.orbit.PeriodicOrbit`; its ``velocity`` and ``height`` integrate the
+    orbit from its state at ``t_start``.
 
     Attributes
     ----------
     converged, success : bool
     status : int
-        0 converged; 1 iteration limit; 2 Newton stagnated (line search failed);
-        3 event bound exceeded (``max_events_per_period``); 4 the period map failed
-        (contact search stalled / stiff solver failed); 5 interrupted (KeyboardInterrupt);
-        6 converged on the free nodes but a node stuck at the section is free after one period.
+        A code of :data:`tps_solver.orbit.STATUS`: 0 converged; 1 iteration limit; 2 Newton
+        stagnated (line search failed); 3 the period map failed (contact search stalled / stiff
+        solver failed); 5 interrupted (KeyboardInterrupt); 6 event bound exceeded
+        (``max_events_per_period``); 7 converged on the free nodes but a node stuck at the
+        section is free after one period.
     status_text : str
     message : str
         What happened and, if not converged, what to try.
@@ -181,6 +183,12 @@ class PeriodicOrbit(Bunch):
         return self._sample(t)[1]
 
 
+def _fda_methods():
+    from .fda import METHODS
+
+    return METHODS
+
+
 class _MapError(Exception):
     def __init__(self, status, message):
         super().__init__(message)
@@ -223,14 +231,14 @@ class _PeriodMap:
         run = simulate(self.lattice, self.Gamma, self.e, w, z, t_start=self.t_s,
                        t_end=self.t_s + periods * self.T, method=self.method, t_eval=t_eval, **kw)
         if run.status == 2:
-            raise _MapError(3, f"event bound exceeded in the period map: {run.message}; raise "
+            raise _MapError(6, f"event bound exceeded in the period map: {run.message}; raise "
                                "max_events_per_period, raise stick_velocity (chatter turns into sticking "
                                "sooner) or start closer to a periodic orbit")
         if not run.success:
-            raise _MapError(4, f"the period map failed: {run.message}")
+            raise _MapError(3, f"the period map failed: {run.message}")
         per = run.n_events / periods
         if per > self.max_events:
-            raise _MapError(3, f"event bound exceeded: {per:.0f} events per period > max_events_per_period = "
+            raise _MapError(6, f"event bound exceeded: {per:.0f} events per period > max_events_per_period = "
                                f"{self.max_events}; raise max_events_per_period or stick_velocity")
         return run
 
@@ -314,7 +322,7 @@ def _guess_state(guess, lattice, Gamma, M, e, t_start, method):
         if t_start is not None:
             notes.append("t_start ignored: a SimulationResult guess is taken at its final time")
         return w, z, stuck.copy(), float(guess.t), notes
-    if isinstance(guess, PeriodicOrbit):
+    if isinstance(guess, ShootingOrbit):
         if not _same_lattice(guess.lattice, lattice):
             raise ValueError(f"guess comes from another lattice ({guess.lattice!r}), not {lattice!r}")
         return guess.w0.copy(), guess.zeta0.copy(), guess.stuck0.copy(), float(guess.t_start), notes
@@ -344,7 +352,7 @@ def _guess_state(guess, lattice, Gamma, M, e, t_start, method):
             z = np.maximum(z, 0.0)
         return w, z, np.zeros(n, bool), t_start, notes
     raise ValueError("guess must be (w0, zeta0), a SimulationResult, a PeriodicSolution, a LatticeCycle, "
-                     f"a FlatLayer or a PeriodicOrbit, got {type(guess).__name__}")
+                     f"a FlatLayer or a ShootingOrbit, got {type(guess).__name__}")
 
 
 def _intervals(events, stuck0, t0, t1, method, tau_c=None):
@@ -432,7 +440,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         Restitution in [0, 1) (in (0, 1) for the soft contact).
     cutoff : float, optional
         Soft-contact length :math:`\ell > 0`; selects ``method="soft"``.  None: point impacts (54).
-    guess : tuple, SimulationResult, PeriodicSolution, LatticeCycle, FlatLayer or PeriodicOrbit, optional
+    guess : tuple, SimulationResult, PeriodicSolution, LatticeCycle, FlatLayer or ShootingOrbit, optional
         Starting state.  ``(w0, zeta0)`` or ``(w0, zeta0, stuck0)`` (arrays of shape
         (n_nodes,)) at time ``t_start``; a time-stepped run (its final state); anything with
         ``velocity(t)``/``height(t)`` and the lattice's ``nodes`` (sampled at ``t_start``,
@@ -491,7 +499,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
 
     Returns
     -------
-    PeriodicOrbit
+    ShootingOrbit
 
     Raises
     ------
@@ -522,7 +530,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         cutoff = check_positive(cutoff, "cutoff")
     if method is None:
         method = "soft" if cutoff is not None else "exact"
-    method = check_choice(method, "method", METHODS)
+    method = check_choice(method, "method", tuple(_fda_methods()))
     if method == "soft" and cutoff is None:
         raise ValueError("cutoff must be a finite number > 0 when method='soft', got None")
     if method != "soft" and cutoff is not None:
@@ -571,7 +579,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
     t_s = t_g
 
     def result(x=None, pm=None, F_res=float("nan"), nit=0):
-        out = PeriodicOrbit(converged=status == 0, success=status == 0, status=status,
+        out = ShootingOrbit(converged=status == 0, success=status == 0, status=status,
                             status_text=STATUS[status], message=message, residual=float(F_res),
                             residual_history=np.asarray(history, dtype=float), nit=nit,
                             step_lengths=np.array([r[0] for r in steps], dtype=float),
@@ -622,7 +630,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
             callback(0, res)
         while True:
             if res <= tol:
-                status = 0 if extra == 0.0 else 6
+                status = 0 if extra == 0.0 else 7
                 break
             if nit >= max_iter:
                 status = 1
@@ -684,12 +692,12 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         out.message = message + ("try a guess closer to the orbit (time-step more periods first), another "
                                  "section, or a larger krylov_dim; a multiplier near 1 (a neutral mode such as "
                                  "a front position) makes I - J ill-conditioned")
-    elif status == 6:
+    elif status == 7:
         out.message = (f"the free nodes are periodic to {res:.3g}, but a node stuck at t_start is free after "
                        "one period; use section='auto' or another t_start")
-    elif status == 3:
+    elif status == 6:
         out.message = message
-    elif status == 4:
+    elif status == 3:
         out.message = message + "; try another method, a smaller time_tol or a guess closer to the orbit"
     try:
         _pattern(out, pm, x, simultaneity)
