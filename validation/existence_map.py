@@ -681,7 +681,7 @@ def _cost_rows(maps, map_times, fronts, shots, timing):
                          wall=map_times[key]))
     groups = {}
     for fr in fronts:
-        if fr["verdict"] == "no flat orbit":
+        if not fr.get("n_nodes"):
             continue
         key = (fr["geometry"], fr["method"], fr.get("cutoff"), fr["dx"])
         groups.setdefault(key, []).append(fr)
@@ -698,7 +698,8 @@ def _cost_rows(maps, map_times, fronts, shots, timing):
                          wall=None))
     if shots:
         sec = np.array([s["seconds"] for s in shots])
-        rows.append(dict(solver="find_periodic_orbit (exact)", what="one shooting from a settled front", n=len(sec),
+        rows.append(dict(solver="find_periodic_orbit", what="one shooting from a settled or stationary front",
+                         n=len(sec),
                          median=float(np.median(sec)), mean=float(np.mean(sec)), max=float(np.max(sec)), wall=None))
     return rows
 
@@ -861,9 +862,11 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
         "",
         "**Sizes and why.** Chosen from short probes before this run (the machine ran at a load average of "
         "about 11 on its 2 cores; the costs of this run are in section 5): basin points cost seconds, point-impact "
-        "fronts seconds per period, while the Radau soft integrator needs tens of seconds per period even for a "
-        "quiet 21-node kink (its docstring: ~1900 steps per time unit at a front), so soft contact is mapped by "
-        "its basins, with soft time stepping at one point only. Hence: "
+        "fronts seconds per period, the Radau soft integrator (`soft-radau`) tens of seconds per period even for "
+        "a quiet 21-node kink. The fast soft integrator (`method=\"soft\"`: exact switches, O(n) per step, a "
+        "sticking rule with capture speed 1e-4; registered in `tps.METHODS` while this study ran) costs about as "
+        "much as point impacts, so the soft fronts of section 2 use it, on the same points (e > 0) and grids "
+        "as the point-impact fronts, run after the point-impact map. Hence: "
         f"basins with {cfg['n_samples']} samples and {cfg['basin_periods']} periods per (Gamma, e) point on the full "
         f"grid (e in {{{', '.join(f'{e:g}' for e in cfg['e_values'])}}}, Gamma = {gs[0]:g} to {gs[-1]:g} step "
         f"{gs[1] - gs[0]:g} for point impacts; soft contact on a reduced grid, see its tables, as it costs "
@@ -936,7 +939,7 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
                                   ("wall s", "seconds")])]
     # refinement
     ref_rows = []
-    keys = sorted({(f["Gamma"], f["e"], f["geometry"], f["model"]) for f in fr if f["verdict"] != "no flat orbit"})
+    keys = sorted({(f["Gamma"], f["e"], f["geometry"], f["model"]) for f in fr if f.get("defects")})
     for key in keys:
         grp = sorted([f for f in fr if (f["Gamma"], f["e"], f["geometry"], f["model"]) == key], key=lambda f: -f["dx"])
         if len(grp) < 2:
@@ -954,15 +957,16 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
     shots = [dict(f, **f["orbit"]) for f in fr if f.get("orbit")]
     parts += ["", "### 4. Periodic fronts by shooting from the settled state", ""]
     if shots:
-        parts += [f"`tps.find_periodic_orbit` (exact point impacts, max_iter {cfg['shoot_max_iter']}, Krylov "
-                  f"dimension {cfg['shoot_krylov']}, wall-time budget {cfg['shoot_budget']:g} s) from the final "
-                  f"time-stepped state of runs that settled or stayed stationary on the coarser grid "
-                  f"(dx = {max(cfg['dx']):g}). Contacts: count per period -> number of nodes.",
-                  "", markdown_table(shots, [("Gamma", "Gamma"), ("e", "e"), ("state", "geometry"), ("dx", "dx"),
+        parts += [f"`tps.find_periodic_orbit` (point impacts: `exact`; soft: `soft`; max_iter {cfg['shoot_max_iter']}, Krylov "
+                  f"dimension {cfg['shoot_krylov']}, a wall-time budget of a few minutes checked after each Newton "
+                  "step, the multipliers computed after convergence) from the final time-stepped state of runs "
+                  "that settled or stayed stationary. Contacts: count per period -> number of nodes.",
+                  "", markdown_table(shots, [("Gamma", "Gamma"), ("e", "e"), ("state", "geometry"), ("model", "model"),
+                                             ("dx", "dx"),
                                              ("converged", "converged"), ("status", "status"),
                                              ("residual", "residual"), ("Newton steps", "nit"),
                                              ("contacts per node", "contacts"),
-                                             ("leading abs(mu)", lambda r: _fmt_list(r["mu"]) if r["mu"] else None),
+                                             ("leading abs(mu)", lambda r: _fmt_list(r["mu"], 5) if r["mu"] else None),
                                              ("wall s", "seconds")])]
     else:
         parts += ["No shooting was run (no front settled on the coarser grid)."]
@@ -970,9 +974,8 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
     # costs
     cost = _cost_rows(maps, map_times, fronts, [s["orbit"] for s in fr if s.get("orbit")], timing)
     per_point = (sum(float(np.mean([r["seconds"] for r in rs])) for rs in maps.values())
-                 + sum(float(np.mean([f["seconds"] for f in fr if f["geometry"] == g and f["dx"] == dx
-                                      and f["model"] == "point"] or [0.0]))
-                       for g in ("kink", "oscillon") for dx in cfg["dx"])
+                 + sum(float(np.mean([f["seconds"] for f in fr if (f["geometry"], f["model"], f["dx"]) == key]))
+                       for key in {(f["geometry"], f["model"], f["dx"]) for f in fr if f.get("defects")})
                  + (float(np.mean([s["seconds"] for s in shots])) if shots else 0.0))
     eff = timing["speedup"] / 2.0
     cluster_workers = 16 * 2
@@ -991,8 +994,9 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
               f"(identical results: {'yes' if timing['same'] else 'no'}); the machine is shared by ~8 jobs, so the "
               "second core is not free and this speed-up is a lower bound of what an idle machine gives.",
               "",
-              f"**A 100-point map on a 16-node cluster.** One (Gamma, e) point of this map (point + two soft basins, "
-              f"kink and oscillon on both grids, one shooting) costs {per_point:.0f} s here (means of the table). "
+              f"**A 100-point map on a 16-node cluster.** One (Gamma, e) point of this map (every basin map, every "
+              f"kind of front run -- kink and oscillon, each model, both grids -- and one shooting) costs "
+              f"{per_point:.0f} s here (sum of the means of the table). "
               f"With 16 nodes of 2 workers each at the parallel efficiency measured here ({eff:.2f}), 100 points "
               f"take about 100 x {per_point:.0f} s / ({cluster_workers} x {eff:.2f}) = {est:.0f} s "
               f"({est / 60:.1f} min), but not less than the longest single task measured here "
@@ -1000,6 +1004,23 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
               "per-task times are shorter than measured here (the machine ran at a load of about 11 on 2 cores)."]
     parts += ["", "### 6. Against the experiments' phase diagram", "", _comparison(cfg, maps, fr, lo45, hi45)]
     return "\n".join(parts)
+
+
+def _soft_summary(fr):
+    soft = [f for f in fr if f.get("cutoff") is not None and f.get("defects")]
+    if not soft:
+        return ""
+    out = []
+    for cut in sorted({f["cutoff"] for f in soft}):
+        by = {}
+        for f in soft:
+            if f["cutoff"] == cut:
+                key = (f["geometry"], f["Gamma"], f["e"])
+                by.setdefault(key, []).append(f"{f['verdict']}" + (f" {f['speed']:.3g}" if f.get("speed") else "")
+                                              + f" (dx {f['dx']:g})")
+        out.append(f"l = {cut:g}: " + "; ".join(f"{g} ({G:g}, {e:g}) " + " / ".join(v)
+                                                for (g, G, e), v in sorted(by.items())))
+    return ". ".join(out) + "."
 
 
 def _pd_gamma(e, M=2):
@@ -1018,10 +1039,11 @@ def _comparison(cfg, maps, fr, lo45, hi45):
     pd_txt = "; ".join(f"{name(f)} {f['verdict']}: Gamma - Gamma_PD(e) = "
                        f"{f['Gamma'] - _pd_gamma(f['e'], cfg['M']):+.2f}" for f in ks) or "none"
     shots = [f for f in fr if f.get("orbit")]
-    shot_txt = "; ".join(f"{name(f)} dx = {f['dx']:g}: " + (
+    shot_txt = "; ".join(f"{name(f)} {f['model']} dx = {f['dx']:g}: " + (
         f"converged (residual {f['orbit']['residual']:.1e}, leading |mu| "
-        f"{', '.join(f'{m:.3g}' for m in f['orbit']['mu'])})" if f["orbit"]["converged"] else
-        f"not converged within the budget (residual {f['orbit']['residual']:.1e})") for f in shots) or "none run"
+        f"{', '.join(f'{m:.5g}' for m in f['orbit']['mu'])})" if f["orbit"]["converged"] else
+        f"not converged (status {f['orbit']['status']}, residual {f['orbit']['residual']:.1e})")
+        for f in shots) or "none run"
     others = "; ".join(f"{g} {v}: {', '.join(name(f) for f in fs)}" for (g, v), fs in sorted(by.items(), key=str))
     ctrl = [f for f in pts if (f["Gamma"], f["e"]) == tuple(cfg["control"])]
     ctrl_txt = "; ".join(f"{f['geometry']} {f['verdict']}" + (f" at {f['speed']:.3g} viscous lengths per period"
@@ -1056,9 +1078,9 @@ def _comparison(cfg, maps, fr, lo45, hi45):
         "takes it over within a period or two) or is invaded. This is the main disagreement with the experiments, "
         "which see oscillons in a narrow band of Gamma; within this model (antiplane, constant thickness, point "
         "impacts at the lattice cut-off) the map gives no such band.",
-        "- Soft contact: the basin maps at the two cut-offs are in the tables above; soft time stepping was "
-        "affordable at one point only (section 2), so the map's front verdicts are point-impact verdicts at the "
-        "lattice cut-off (docs/design.md, hazard 8).",
+        "- Soft contact (fixed cut-off, grid-converged in principle): " + (_soft_summary(fr) or "no soft fronts.")
+        + " Point-impact verdicts are statements about the lattice (docs/design.md, hazard 8); the soft ones at "
+        "two grids per cut-off are the model's.",
     ]
     return "\n".join(lines)
 
@@ -1085,8 +1107,9 @@ def render(results_path="/tmp/existence_map_results.pkl", extra_shots=None):
         if os.path.exists(path):
             with open(path, "rb") as fh:
                 for key, orbit in pickle.load(fh):
+                    cut = key[4] if len(key) > 4 else None
                     for f in res["fronts"]:
-                        if (f["geometry"], f["Gamma"], f["e"], f["dx"]) == key and f.get("cutoff") is None:
+                        if (f["geometry"], f["Gamma"], f["e"], f["dx"]) == tuple(key[:4]) and f.get("cutoff") == cut:
                             f["orbit"] = orbit
     text = _section(res["cfg"], res["maps"], res["map_times"], res["fronts"], res["front_wall"], res["timing"],
                     res["total"])
