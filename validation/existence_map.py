@@ -608,7 +608,8 @@ def plot(maps, fronts, config=None, path=None):
     ee = np.linspace(0.02, 0.62, 121)
     lo, hi = zip(*[tps.FlatLayer.stability_window(float(x), cfg["M"]) for x in ee])
     marker = {"settles": ("o", "white"), "stationary": ("P", "cyan"), "drifts": ("D", "orange"), "collapses": ("s", "grey"),
-              "invades": ("x", "red"), "undecided": ("^", "yellow"), "budget exceeded": ("v", "black")}
+              "invades": ("x", "red"), "undecided": ("^", "yellow"), "budget exceeded": ("v", "black"),
+              "no f/2 attractor": ("+", "grey")}
     e_all = sorted({r["e"] for rs in maps.values() for r in rs})
     e_arr = np.array(e_all)
     e_edges = np.concatenate(([e_arr[0] - 0.025], 0.5 * (e_arr[1:] + e_arr[:-1]), [e_arr[-1] + 0.05]))
