@@ -203,3 +203,12 @@ def test_fractions_converge_with_the_number_of_samples():
     err = math.hypot(small.stderr.get("f/2", 0.0), large.stderr.get("f/2", 0.0))
     assert abs(fs - fl) < 3 * max(err, 1 / 64)
     assert large.stderr["f/2"] < small.stderr["f/2"]
+
+
+@pytest.mark.parametrize("Gamma, e", [(3.25, 0.05), (3.0, 0.1), (2.5, 0.2)])
+def test_f1_orbit_with_multiplier_near_minus_one_is_not_counted_as_f2(Gamma, e):
+    # found by validation/existence_map.py: the f/1 bounce (multiplier near -1) repeats after two
+    # cycles before it repeats after one; it must be classified f/1
+    res = flat_basins(Gamma, e, n_samples=4, seed=0)
+    assert res.flat_fraction == 0.0
+    assert res.attractors[0].period == 1 and res.attractors[0].label.startswith("f/1")

@@ -107,9 +107,10 @@ def test_no_f2_attractor_is_reported_not_simulated():
 
 
 def test_f1_cycle_labelled_f2_by_flat_basins_is_not_counted():
-    """At (3.25, 0.05) flat_basins calls an f/1 bounce (negative one-cycle multiplier) period 2; its strobe
-    points at t = 0 and T/2 coincide, so the map does not count it as an f/2 state."""
+    """At (3.25, 0.05) the f/1 bounce (one-cycle multiplier near -1) repeats after two cycles first;
+    flat_basins used to call it period 2 (found by this study) and now classifies it f/1, so neither the
+    library nor the map counts it as an f/2 state."""
     b = em.basin_point(3.25, 0.05, n_samples=8, periods=60)
-    assert b["library_flat_fraction"] == 1.0
-    assert b["flat_fraction"] == 0.0 and b["f1_as_f2"] == 1.0
+    assert b["library_flat_fraction"] == 0.0
+    assert b["flat_fraction"] == 0.0 and b["f1_as_f2"] == 0.0
     assert em.flat_phases(3.25, 0.05, n_samples=8, periods=60) is None

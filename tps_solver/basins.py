@@ -447,6 +447,10 @@ def _dist(x, y):
     return max(abs(x[0] - y[0]), abs(x[1] - y[1]))
 
 
+#: Strobe points closer than this are one point of a cycle that has not converged yet.
+_CONVERGING = 1e-3
+
+
 def _near_period(states, p_max):
     """Smallest p whose return distance (w, zeta only) is within twice the best, and that distance."""
     K = len(states) - 1
@@ -472,6 +476,11 @@ def _basin_sample(Gamma, e, model, cutoff, w0, zeta0, t_section, p_max, max_cycl
             counts.append((sum(kind == "impact" for _, kind in ev), sum(kind == "stick" for _, kind in ev)))
             for p in range(1, min(p_max, k // 2) + 1):
                 if all(_dist(states[k - j], states[k - j - p]) < tol for j in range(p)):
+                    if any(p % d == 0 and all(_dist(states[k - j], states[k - j - d]) < _CONVERGING
+                                              for j in range(d)) for d in range(1, p)):
+                        # a shorter cycle is still converging (e.g. an f/1 orbit with a multiplier
+                        # near -1 repeats after 2 cycles first): follow it until it repeats itself
+                        continue
                     pts = states[k - p + 1:k + 1]
                     imp = sum(c[0] for c in counts[k - p:k])
                     stk = sum(c[1] for c in counts[k - p:k])
