@@ -311,3 +311,11 @@ def test_soft_flat_orbit_and_multipliers_match_per_mode_monodromy():
     assert orb.differentiable is None                   # smooth by construction, not tested
     dist = np.abs(orb.multipliers[:, None] - want[None, :])
     assert max(dist.min(axis=0).max(), dist.min(axis=1).max()) < 1e-3
+
+
+def test_point_method_gives_the_exact_cycle_too():
+    coarse = tps.Lattice.planar(n_nodes=8, length=140.0)
+    cyc = tps.solve_lattice_cycle(coarse, Gamma=2.5, M=2, e=0.45, t0=None)
+    orb = find_periodic_orbit(coarse, Gamma=2.5, M=2, e=0.45, guess=cyc, method="point")
+    assert orb.converged and orb.residual <= 1e-11
+    assert abs(abs(orb.multipliers[0]) - 0.457175) < 1e-5

@@ -183,10 +183,8 @@ class ShootingOrbit(PeriodicOrbit):
         return self._sample(t)[1]
 
 
-def _fda_methods():
-    from .fda import METHODS
-
-    return METHODS
+#: FDA methods the period map may use ("soft-radau", the Radau reference, is left out: too slow).
+METHODS = ("exact", "point", "ode", "soft")
 
 
 class _MapError(Exception):
@@ -447,7 +445,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         default the time where the smallest height is largest).  Default: the flat layer.
     t_start : float, optional
         Time of a ``(w0, zeta0)`` guess (required then), or the sampling time of a periodic guess.
-    method : {"exact", "ode", "soft"}, optional
+    method : {"exact", "point", "ode", "soft"}, optional
         Integrator of the period map; default ``"soft"`` if ``cutoff`` is given, else ``"exact"``.
     tol : float, optional
         Convergence when :math:`\max|P(x) - x| \le` ``tol``; default 1e-11 (exact), 1e-9 (ode),
@@ -530,13 +528,14 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         cutoff = check_positive(cutoff, "cutoff")
     if method is None:
         method = "soft" if cutoff is not None else "exact"
-    method = check_choice(method, "method", tuple(_fda_methods()))
+    method = check_choice(method, "method", METHODS)
     if method == "soft" and cutoff is None:
         raise ValueError("cutoff must be a finite number > 0 when method='soft', got None")
     if method != "soft" and cutoff is not None:
         raise ValueError(f"cutoff is only used with method='soft', got method={method!r}")
     section = check_choice(section, "section", ("auto", "fixed"))
-    defaults = {"exact": (1e-11, 1e-7, 1e-7), "ode": (1e-9, 1e-6, 1e-6), "soft": (1e-7, 1e-5, 1e-4)}[method]
+    defaults = {"exact": (1e-11, 1e-7, 1e-7), "point": (1e-11, 1e-7, 1e-7), "ode": (1e-9, 1e-6, 1e-6),
+                "soft": (1e-7, 1e-5, 1e-4)}[method]
     tol = defaults[0] if tol is None else check_positive(tol, "tol")
     fd_step = defaults[1] if fd_step is None else check_positive(fd_step, "fd_step")
     jacobian_step = defaults[2] if jacobian_step is None else check_positive(jacobian_step, "jacobian_step")
