@@ -158,3 +158,19 @@ def test_cli_bad_flags_name_the_flag(argv, flag, capsys):
 
     assert main(argv) == 2
     assert flag in capsys.readouterr().err
+
+
+def test_shooting_orbit_branch_matches_independent_shooting(cycle):
+    orb = tps.find_periodic_orbit(cycle.lattice, Gamma=2.5, M=2, e=0.45, guess=cycle, method="point")
+    br = continue_branch(orb, "e", (0.40, 0.50), max_points=3, step=0.004, tol=1e-9)
+    assert br.problem == "shooting" and br.parameter_values.size == 3
+    for e, mu in zip(br.parameter_values[1:], br.multipliers[1:]):
+        c = tps.solve_lattice_cycle(cycle.lattice, Gamma=2.5, M=2, e=e, t0=None)
+        ref = tps.find_periodic_orbit(cycle.lattice, Gamma=2.5, M=2, e=e, guess=c, method="point")
+        assert abs(abs(mu[0]) - abs(ref.multipliers[0])) < 1e-6
+
+
+def test_shooting_orbit_cutoff_needs_a_soft_orbit(cycle):
+    orb = tps.find_periodic_orbit(cycle.lattice, Gamma=2.5, M=2, e=0.45, guess=cycle, method="point")
+    with pytest.raises(ValueError, match="cutoff"):
+        continue_branch(orb, "cutoff", (0.1, 0.5))

@@ -45,7 +45,12 @@ Problems
   parameter ``"spacing"``, ``"Gamma"`` or ``"e"``): the contact condition (46)
   of :mod:`tps_solver.tps.cycle` in the contact times, on the lattice scaled to
   the node spacing; multipliers from the FDA period map by
-  :func:`~tps_solver.find_periodic_orbit` (``multipliers=True``).
+  :func:`~tps_solver.find_periodic_orbit` (``multipliers=True``);
+* a :class:`~tps_solver.shooting.ShootingOrbit` (any contact pattern; parameter
+  ``"Gamma"``, ``"e"`` or, for the soft contact, ``"cutoff"``): the shooting
+  equation :math:`P(x; p) = x` of the FDA period map at the orbit's section, with
+  a dense central-difference Jacobian (small lattices) whose eigenvalues are the
+  multipliers.
 """
 import math
 import time
@@ -347,10 +352,98 @@ class _CycleProblem:
         return mu
 
 
+class _OrbitProblem:
+    """Periodic orbits of the FDA by shooting, any contact pattern: F(x, p) = P(x; p) - x.
+
+    ``x`` is the state ``(w, zeta)`` of all nodes at the section ``t_start`` of the start orbit
+    (which must have no node stuck there); the Jacobian is a dense central difference of the
+    period map (2 n_nodes periods), so this is meant for small lattices.  The monodromy is
+    ``dP/dx``; with point impacts it is only piecewise smooth where contacts coincide
+    (docs/design.md, hazard 7), and the multipliers are those of the central difference.
+    """
+
+    name = "shooting"
+    parameters = ("Gamma", "e", "cutoff")
+
+    def __init__(self, orbit, parameter, multipliers, max_unknowns=64):
+        stuck = np.asarray(orbit.get("stuck0", np.zeros(orbit.lattice.n_nodes, bool)), dtype=bool)
+        if np.any(stuck):
+            raise ValueError("start must have no node stuck at its section t_start for continuation "
+                             f"(got {int(stuck.sum())}); shoot again with another t_start")
+        if parameter == "cutoff" and orbit.cutoff is None:
+            raise ValueError("parameter 'cutoff' needs a soft-contact start orbit (cutoff is None)")
+        self.lattice, self.method, self.t_s, self.T = orbit.lattice, orbit.method, orbit.t_start, orbit.period
+        n = self.lattice.n_nodes
+        if 2 * n > max_unknowns:
+            raise ValueError(f"start has {2 * n} unknowns; continuation of shooting orbits uses a dense "
+                             f"Jacobian and takes at most {max_unknowns}")
+        self.fixed = {"Gamma": orbit.Gamma, "e": orbit.e, "M": orbit.M}
+        if orbit.cutoff is not None:
+            self.fixed["cutoff"] = orbit.cutoff
+        self.parameter = parameter
+        self.x0 = np.concatenate([orbit.w0, orbit.zeta0])
+        self.p0 = self.fixed[parameter]
+        self.with_multipliers = multipliers
+        self._last = None
+
+    def _period_map(self, x, p):
+        from .fda import simulate
+
+        kw = dict(self.fixed)
+        kw[self.parameter] = p
+        if kw["Gamma"] <= 0.0 or not 0.0 <= kw["e"] < 1.0 or kw.get("cutoff", 1.0) <= 0.0:
+            raise _Refused(f"parameter out of range: {self.parameter} = {p:.6g}")
+        n = self.lattice.n_nodes
+        w, z = x[:n], x[n:]
+        extra = {} if "cutoff" not in kw else {"cutoff": kw["cutoff"]}
+        if self.method != "soft" and np.any(z < 0.0):
+            raise _Refused(f"a height is negative at {self.parameter} = {p:.6g}")
+        run = simulate(self.lattice, kw["Gamma"], kw["e"], w, z, t_start=self.t_s, t_end=self.t_s + self.T,
+                       method=self.method, **extra)
+        if not run.success or np.any(run.stuck):
+            raise _Refused(f"the period map at {self.parameter} = {p:.6g} failed or ended with stuck "
+                           f"nodes: {run.message}")
+        return np.concatenate([run.w, run.zeta])
+
+    def residual(self, x, p):
+        return self._period_map(x, p) - x
+
+    def _jacobians(self, x, p):
+        key = (x.tobytes(), float(p))
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        h = 1e-6 * max(1.0, float(np.max(np.abs(x))))
+        cols = []
+        for k in range(x.size):
+            d = np.zeros_like(x)
+            d[k] = h
+            cols.append((self._period_map(x + d, p) - self._period_map(x - d, p)) / (2.0 * h))
+        P = np.array(cols).T
+        hp = 1e-6 * max(1.0, abs(p))
+        Jp = (self.residual(x, p + hp) - self.residual(x, p - hp)) / (2.0 * hp)
+        self._last = (key, (P, Jp))
+        return P, Jp
+
+    def jacobian(self, x, p):
+        P, Jp = self._jacobians(x, p)
+        return P - np.eye(x.size), Jp
+
+    def monodromy(self, x, p):
+        if not self.with_multipliers:
+            return None
+        return self._jacobians(x, p)[0]
+
+
 def _make_problem(start, parameter, multipliers):
     from .flat import FlatLayer
+    from .shooting import ShootingOrbit
     from .tps.cycle import LatticeCycle
 
+    if isinstance(start, ShootingOrbit):
+        if not start.converged:
+            raise ValueError("start must be a converged ShootingOrbit (got converged=False)")
+        parameter = check_choice(parameter, "parameter", _OrbitProblem.parameters)
+        return _OrbitProblem(start, parameter, multipliers)
     if isinstance(start, FlatLayer):
         if getattr(start, "pattern", "bounce") not in ("bounce", None):
             raise ValueError(f"start must be a single-bounce FlatLayer for continuation, got pattern "
@@ -361,7 +454,8 @@ def _make_problem(start, parameter, multipliers):
             raise ValueError("start must be a converged LatticeCycle (got converged=False)")
         problem = _CycleProblem
     else:
-        raise ValueError(f"start must be a FlatLayer or a LatticeCycle, got {type(start).__name__}")
+        raise ValueError(f"start must be a FlatLayer, a LatticeCycle or a ShootingOrbit, got "
+                         f"{type(start).__name__}")
     parameter = check_choice(parameter, "parameter", problem.parameters)
     if problem is _FlatProblem:
         return problem(start, parameter)
@@ -429,10 +523,11 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
 
     Parameters
     ----------
-    start : FlatLayer or LatticeCycle
+    start : FlatLayer, LatticeCycle or ShootingOrbit
         A point on the branch.
     parameter : str
-        ``"Gamma"`` or ``"e"`` (flat layer); ``"spacing"``, ``"Gamma"`` or ``"e"`` (lattice cycle).
+        ``"Gamma"`` or ``"e"`` (flat layer); ``"spacing"``, ``"Gamma"`` or ``"e"`` (lattice cycle);
+        ``"Gamma"``, ``"e"`` or ``"cutoff"`` (shooting orbit).
     bounds : (float, float)
         The parameter interval; the branch stops where it leaves it.  It must contain
         the start's parameter value.
