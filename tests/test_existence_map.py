@@ -84,6 +84,7 @@ def kink_e0():
                         config=dict(n_samples=8, basin_periods=40))
 
 
+@pytest.mark.slow
 def test_inelastic_kink_relaxes_to_a_stationary_single_pattern_front(kink_e0):
     d = np.array(kink_e0["defects"])
     assert kink_e0["ref_count"] == 2 and kink_e0["periods_run"] == 8
@@ -92,6 +93,7 @@ def test_inelastic_kink_relaxes_to_a_stationary_single_pattern_front(kink_e0):
     assert len(set(kink_e0["fronts"])) == 1 and all(kink_e0["alive"])   # the front neither moves nor collapses
 
 
+@pytest.mark.slow
 def test_paper_case_kink_front_launches_a_multi_contact_state():
     r = em.front_run("kink", 2.5, 0.45, dx=0.8, extent=24.0, periods=2, keep_state=False,
                      config=dict(n_samples=16, basin_periods=60))
