@@ -47,6 +47,7 @@ SECTION_ORDER = (
     ("flat_sticking", "Flat orbits with sticking, touch-and-go and chatter (e -> 0)"),
     ("tps_stick", "The TPS for impact-and-stick contacts"),
     ("basins", "Basins of the bouncing ball"),
+    ("integrators", "Fast integrators: point impacts and the soft contact"),
     ("shooting", "Periodic orbits of any contact pattern by shooting"),
     ("continuation", "Continuation: folds and period doublings"),
     ("existence_map", "Where kinks and oscillons exist: the existence-stability map"),
