@@ -28,32 +28,14 @@ from threadpoolctl import threadpool_limits
 
 import tps_solver as tps
 from tps_solver.fda import flat_state, kink_state
-from tps_solver.fda.events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
-from tps_solver.fda.point import PointIntegrator
 
 GAMMA, E, M = 2.5, 0.45, 2
 LENGTH = 10.0
 
 
-def run_point(lattice, w0, zeta0, t_start, t_end, stick_velocity=1e-6):
-    """The loop body of ``simulate`` around ``PointIntegrator``; returns the event records."""
-    n = lattice.n_nodes
-    w, zeta = np.array(w0, dtype=float), np.array(zeta0, dtype=float)
-    stuck = np.zeros(n, dtype=bool)
-    rule, _ = make_impact_rule("point")
-    log = EventLog(t_start, 100 * n)
-    prop = PointIntegrator(lattice, GAMMA, E)
-    t = t_start
-    while t < t_end:
-        step = prop.advance(t, w, zeta, stuck, t_end)
-        t, w, zeta, contact, liftoff = step.t, step.w, step.zeta, step.contact, step.liftoff
-        if contact.size:
-            apply_contacts(t, w, zeta, stuck, contact, lattice, GAMMA, E, rule, stick_velocity, log)
-            liftoff = np.union1d(liftoff, pulled_off(t, w, stuck, lattice, GAMMA))
-        if liftoff.size:
-            liftoff = liftoff[stuck[liftoff]]
-            apply_liftoff(t, w, zeta, stuck, liftoff, log)
-    return log.to_array()
+def run_point(lattice, w0, zeta0, t_start, t_end):
+    """``simulate(..., method="point")``; returns the event records (same driver as ``run_exact``)."""
+    return tps.simulate(lattice, GAMMA, E, w0, zeta0, t_start=t_start, t_end=t_end, method="point").events
 
 
 def run_exact(lattice, w0, zeta0, t_start, t_end):
