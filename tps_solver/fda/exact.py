@@ -65,7 +65,7 @@ from ..flight import phi1, phi2
 from .base import Integrator, Step
 from .events import event_sets
 
-__all__ = ["forced_response", "Modes", "Segment", "ExactPropagator"]
+__all__ = ["candidate_group", "forced_response", "Modes", "Segment", "ExactPropagator"]
 
 _EPS = np.finfo(float).eps
 
@@ -292,6 +292,47 @@ def _safe_step(f, fp, A):
     return np.where(fp >= 0.0, (fp + root) / A, neg)
 
 
+def candidate_group(h, upper, ok, m):
+    r"""The nodes that may reach the plate first, grown to a closed set, or None.
+
+    Starting from the node ``m`` with the smallest lower bound, the set is every node whose
+    lower bound ``h`` lies below the largest upper bound ``upper`` of the set, repeated until it
+    stops growing.  ``None`` when a member has no certified bracket (``ok`` False): the caller
+    then takes a smaller step.
+
+    Parameters
+    ----------
+    h, upper : ndarray of float, shape (n,)
+        Lower and upper bounds of each candidate's first crossing time.
+    ok : ndarray of bool, shape (n,)
+        Whether each upper bound is certified.
+    m : int
+        Index of the smallest lower bound.
+
+    Returns
+    -------
+    group : ndarray of int or None
+
+    Examples
+    --------
+    >>> candidate_group(np.array([0.0, 0.5, 2.0]), np.array([1.0, 1.5, 3.0]), np.ones(3, bool), 0)
+    array([0, 1])
+    >>> candidate_group(np.array([0.0, 0.5]), np.array([1.0, 1.5]), np.array([True, False]), 0) is None
+    True
+    """
+    span = upper[m]
+    while True:
+        group = np.flatnonzero(h < span)
+        if group.size == 0:
+            group = np.array([m])
+        if not np.all(ok[group]):
+            return None
+        new_span = float(np.max(upper[group]))
+        if new_span <= span:
+            return group
+        span = new_span
+
+
 class ExactPropagator(Integrator):
     """Event search with exact modal propagation (``method="exact"``).
 
@@ -483,17 +524,9 @@ class ExactPropagator(Integrator):
         with np.errstate(invalid="ignore", divide="ignore"):
             upper = np.where(ok, 2.0 * fpos / (-fp + np.sqrt(np.maximum(disc, 0.0))), np.inf)
         m = int(np.argmin(h))
-        span = upper[m]
-        while True:
-            group = np.flatnonzero(h < span)
-            if group.size == 0:
-                group = np.array([m])
-            if not np.all(ok[group]):
-                return None
-            new_span = float(np.max(upper[group]))
-            if new_span <= span:
-                break
-            span = new_span
+        group = candidate_group(h, upper, ok, m)
+        if group is None:
+            return None
         # earliest root: start from the smallest Newton estimate, then repair order
         newton = fpos[group] / -fp[group]
         lead = int(group[np.argmin(newton)])

@@ -62,7 +62,7 @@ import numpy as np
 from ..flight import phi2_expm1
 from .base import Integrator, Step
 from .events import event_sets
-from .exact import Modes
+from .exact import Modes, candidate_group
 
 __all__ = ["PointIntegrator"]
 
@@ -510,17 +510,9 @@ class PointIntegrator(Integrator):
         ok = (fp < 0.0) & (fp * fp >= 2.5 * A * fpos)
         with np.errstate(invalid="ignore", divide="ignore"):
             upper = np.where(ok, 2.0 * fpos / (-fp + np.sqrt(np.maximum(disc, 0.0))), np.inf)
-        span = upper[m]
-        while True:
-            group = np.flatnonzero(h < span)
-            if group.size == 0:
-                group = np.array([m])
-            if not ok[group].all():
-                return None
-            new_span = float(np.max(upper[group]))
-            if new_span <= span:
-                break
-            span = new_span
+        group = candidate_group(h, upper, ok, m)
+        if group is None:
+            return None
         # earliest root: start from the smallest Newton estimate, then repair order
         newton = fpos[group] / -fp[group]
         lead = int(group[np.argmin(newton)])
