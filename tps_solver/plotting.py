@@ -3,7 +3,11 @@ r"""Figures (matplotlib is imported only when a function is called; the backend 
 * :func:`solution_figures` / :func:`plot_solution` -- space-time maps of :math:`\zeta(t, r)` and
   :math:`w - W` (paper Figs. 3-4) and snapshots: polar top views of the oscillon (Fig. 5) or
   profiles of the kink;
-* :func:`growth_rates_figure` / :func:`plot_growth_rates` -- the damping rates of (35).
+* :func:`growth_rates_figure` / :func:`plot_growth_rates` -- the damping rates of (35);
+* :func:`orbit_period_figure` / :func:`plot_orbit_period` -- height and velocity of a lattice
+  periodic orbit (e.g. a :class:`~tps_solver.shooting.ShootingOrbit`) over one period;
+* :func:`contact_pattern_figure` / :func:`plot_contact_pattern` -- its contact pattern
+  (node position vs time: flying, touch-and-go instants, stuck intervals).
 
 Every figure has labelled axes with units (heights in plate amplitudes A, velocities in
 :math:`A\omega`, horizontal lengths in viscous lengths, time in units of :math:`1/\omega`),
@@ -16,7 +20,8 @@ import os
 
 import numpy as np
 
-__all__ = ["solution_figures", "plot_solution", "growth_rates_figure", "plot_growth_rates"]
+__all__ = ["solution_figures", "plot_solution", "growth_rates_figure", "plot_growth_rates",
+           "orbit_period_figure", "plot_orbit_period", "contact_pattern_figure", "plot_contact_pattern"]
 
 
 def _pyplot():
@@ -292,5 +297,241 @@ def plot_growth_rates(path, kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_point
     plt = _pyplot()
     fig = growth_rates_figure(kh_min, kh_max, n_modes, nu, n_points)
     fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _orbit_header(orbit):
+    x = np.asarray(orbit.nodes, dtype=float)
+    dx = float(np.min(np.diff(x))) if x.size > 1 else float("nan")
+    space = "x" if orbit.geometry == "planar" else "r"
+    state = (f"converged, max|P(x) - x| = {orbit.residual:.1e}" if orbit.converged
+             else f"NOT converged (status {orbit.status})")
+    head = (f"lattice orbit ({orbit.method}): $\\Gamma$ = {orbit.Gamma:g}, e = {orbit.e:g}, M = {orbit.M}, "
+            f"{x.size} nodes, d{space} = {dx:.3g}, {orbit.geometry}")
+    return head + "\n" + state, space
+
+
+def orbit_period_figure(orbit, n_times=200, n_snapshots=6):
+    r"""Height :math:`\zeta(x, t)` and velocity :math:`w(x, t)` of a lattice periodic orbit over one period.
+
+    Parameters
+    ----------
+    orbit : ShootingOrbit
+        Any lattice periodic orbit with ``nodes``, ``geometry``, ``t_start``, ``period``,
+        ``height(t)``, ``velocity(t)`` (arrays of shape (n_times, n_nodes)), ``Gamma``, ``e``,
+        ``M``, ``method``, ``converged``, ``residual``, ``status``.
+    n_times : int
+        Time samples over ``[t_start, t_start + period)`` for the space-time images.
+    n_snapshots : int
+        Profiles per period in the lower panels.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Four panels: space-time images of :math:`\zeta` and :math:`w` (time upwards, from
+        ``t_start``), and :math:`\zeta(x)`, :math:`w(x)` at ``n_snapshots`` equally spaced times.
+
+    Examples
+    --------
+    The e = 0 flat layer on three nodes is a (uniform) periodic orbit found at once by shooting:
+
+    >>> import matplotlib.pyplot as plt
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
+    >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
+    ...                               multipliers=False)
+    >>> fig = orbit_period_figure(orb, n_times=8, n_snapshots=2)
+    >>> [ax.get_xlabel() for ax in fig.axes[:2]]
+    ['$x$ (viscous lengths)', '$x$ (viscous lengths)']
+    >>> len(fig.axes[2].lines), fig.axes[1].get_title()
+    (2, 'velocity $w$ (units of $A\\omega$)')
+    >>> plt.close(fig)
+    """
+    plt = _pyplot()
+    x = np.asarray(orbit.nodes, dtype=float)
+    T = float(orbit.period)
+    t = orbit.t_start + T * np.arange(n_times) / n_times
+    ts = orbit.t_start + T * np.arange(n_snapshots) / n_snapshots
+    # unique sample times (ShootingOrbit.height drops repeated times)
+    tt, inv = np.unique(np.concatenate((t, ts)), return_inverse=True)
+    zeta, w = orbit.height(tt)[inv], orbit.velocity(tt)[inv]
+    header, space = _orbit_header(orbit)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
+    xlabel = f"${space}$ (viscous lengths)"
+    for ax, data, label, cmap in ((axes[0, 0], zeta[:n_times], r"height $\zeta$ (plate amplitudes $A$)", "viridis"),
+                                  (axes[0, 1], w[:n_times], r"velocity $w$ (units of $A\omega$)", "RdBu_r")):
+        vmax = float(np.max(np.abs(data))) if cmap == "RdBu_r" else None
+        im = ax.pcolormesh(x, t / math.pi, data, shading="nearest", cmap=cmap,
+                           vmin=-vmax if vmax is not None else None, vmax=vmax)
+        fig.colorbar(im, ax=ax, label=label)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(r"time $\omega t/\pi$ (one period from the section)")
+        ax.set_title(label.split(" (")[0] + " (" + label.split(" (")[1], fontsize=9)
+    cmap = plt.get_cmap("viridis")
+    for ax, data, label in ((axes[1, 0], zeta[n_times:], r"height $\zeta$ (plate amplitudes $A$)"),
+                            (axes[1, 1], w[n_times:], r"velocity $w$ (units of $A\omega$)")):
+        for k, (tk, prof) in enumerate(zip(ts, data)):
+            ax.plot(x, prof, ".-", ms=3, lw=1.2, color=cmap(k / max(1, n_snapshots - 1)),
+                    label=f"$\\omega t$ = {tk / math.pi:.3g}$\\pi$")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(label)
+        ax.legend(fontsize=7)
+    fig.suptitle(header, fontsize=10)
+    return fig
+
+
+def plot_orbit_period(orbit, path, n_times=200, n_snapshots=6, dpi=120):
+    """Write :func:`orbit_period_figure` to ``path`` (PNG or anything ``Figure.savefig`` accepts).
+
+    Parameters
+    ----------
+    orbit : ShootingOrbit
+    path : str or binary file-like
+    n_times, n_snapshots : int
+    dpi : int
+
+    Returns
+    -------
+    path : str or file-like
+        ``path`` as given.
+
+    Examples
+    --------
+    Here ``Figure.savefig`` is replaced by a recorder, so nothing is rendered or written; a
+    real call is ``plot_orbit_period(orb, "orbit.png")``:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from unittest import mock
+    >>> from matplotlib.figure import Figure
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
+    >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
+    ...                               multipliers=False)
+    >>> open_before = plt.get_fignums()
+    >>> with mock.patch.object(Figure, "savefig", autospec=True) as savefig:
+    ...     path = plot_orbit_period(orb, "orbit.png", n_times=4, n_snapshots=1)
+    >>> path, savefig.call_args.args[1:], savefig.call_args.kwargs, plt.get_fignums() == open_before
+    ('orbit.png', ('orbit.png',), {'dpi': 120}, True)
+    """
+    plt = _pyplot()
+    fig = orbit_period_figure(orbit, n_times, n_snapshots)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
+def contact_pattern_figure(orbit, trigger_tol=1e-9):
+    r"""Contact pattern of a lattice periodic orbit: node position vs time over one period.
+
+    Blank is flight; a thick bar is a stuck interval (landing to stick until lift-off); a dot
+    is a touch-and-go contact (an ``"impact"`` event); an open triangle marks a lift-off that
+    happens within ``trigger_tol`` of a neighbouring node's landing ("triggered").
+
+    Parameters
+    ----------
+    orbit : ShootingOrbit
+        Any lattice periodic orbit with ``nodes``, ``geometry``, ``t_start``, ``period``,
+        ``events`` (recarray with fields ``t``, ``node``, ``kind``), ``sticking_intervals``
+        (list of ``(node, t_begin, t_end)``) and the fields of the title (``Gamma``, ``e``, ``M``,
+        ``method``, ``converged``, ``residual``, ``status``).
+    trigger_tol : float
+        Time tolerance for a triggered lift-off.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    On the e = 0 flat layer every node touches and goes once and sticks once per period:
+
+    >>> import matplotlib.pyplot as plt
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
+    >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
+    ...                               multipliers=False)
+    >>> fig = contact_pattern_figure(orb)
+    >>> ax = fig.axes[0]
+    >>> [(c.get_label(), len(c.get_segments() if hasattr(c, "get_segments") else c.get_offsets()))
+    ...  for c in ax.collections]
+    [('stuck', 3), ('touch-and-go', 3), ('triggered lift-off', 0)]
+    >>> plt.close(fig)
+    """
+    plt = _pyplot()
+    x = np.asarray(orbit.nodes, dtype=float)
+    T = float(orbit.period)
+    t0 = float(orbit.t_start)
+    ev = orbit.events
+    header, space = _orbit_header(orbit)
+    fig, ax = plt.subplots(figsize=(8, 5.5), layout="constrained")
+    dxm = float(np.min(np.diff(x))) if x.size > 1 else 1.0
+    ivs = list(orbit.sticking_intervals)
+    ax.vlines([x[j] for j, _, _ in ivs], [b / math.pi for _, b, _ in ivs], [e_ / math.pi for _, _, e_ in ivs],
+              colors="k", lw=max(1.0, min(6.0, 300.0 / x.size)), label="stuck")
+    if ev is not None and len(ev):
+        t = np.asarray(ev.t, dtype=float)
+        node = np.asarray(ev.node, dtype=int)
+        kind = np.asarray(ev.kind).astype(str)
+    else:
+        t, node, kind = np.empty(0), np.empty(0, int), np.empty(0, str)
+    imp = kind == "impact"
+    ax.scatter(x[node[imp]], t[imp] / math.pi, s=12, c="C3", label="touch-and-go", zorder=3)
+    landing = (kind == "impact") | (kind == "stick")
+    trig = []
+    for i in np.flatnonzero(kind == "liftoff"):
+        nb = landing & (np.abs(node - node[i]) == 1)
+        if nb.any():
+            d = np.abs(np.mod(t[nb] - t[i] + 0.5 * T, T) - 0.5 * T)
+            if np.min(d) < trigger_tol:
+                trig.append(i)
+    trig = np.asarray(trig, dtype=int)
+    ax.scatter(x[node[trig]], t[trig] / math.pi, s=30, marker="^", facecolors="none", edgecolors="C0",
+               label="triggered lift-off", zorder=4)
+    ax.set_xlim(x[0] - dxm, x[-1] + dxm)
+    ax.set_ylim(t0 / math.pi, (t0 + T) / math.pi)
+    ax.set_xlabel(f"${space}$ (viscous lengths)")
+    ax.set_ylabel(r"time $\omega t/\pi$ (one period from the section)")
+    ax.set_title(header + "\ncontact pattern: blank = flying", fontsize=9)
+    ax.legend(fontsize=8, loc="upper right")
+    return fig
+
+
+def plot_contact_pattern(orbit, path, trigger_tol=1e-9, dpi=120):
+    """Write :func:`contact_pattern_figure` to ``path`` (PNG or anything ``Figure.savefig`` accepts).
+
+    Parameters
+    ----------
+    orbit : ShootingOrbit
+    path : str or binary file-like
+    trigger_tol : float
+    dpi : int
+
+    Returns
+    -------
+    path : str or file-like
+        ``path`` as given.
+
+    Examples
+    --------
+    Here ``Figure.savefig`` is replaced by a recorder, so nothing is rendered or written; a
+    real call is ``plot_contact_pattern(orb, "pattern.png")``:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from unittest import mock
+    >>> from matplotlib.figure import Figure
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
+    >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
+    ...                               multipliers=False)
+    >>> open_before = plt.get_fignums()
+    >>> with mock.patch.object(Figure, "savefig", autospec=True) as savefig:
+    ...     path = plot_contact_pattern(orb, "pattern.png")
+    >>> path, savefig.call_args.args[1:], savefig.call_args.kwargs, plt.get_fignums() == open_before
+    ('pattern.png', ('pattern.png',), {'dpi': 120}, True)
+    """
+    plt = _pyplot()
+    fig = contact_pattern_figure(orbit, trigger_tol)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
