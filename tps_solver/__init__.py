@@ -18,6 +18,8 @@ Public API (see ``README.md`` for a tour):
 * :class:`PeriodicOrbit`, :data:`STATUS` -- the vocabulary of every periodic result;
 * :func:`check_stability` -- hands a limit cycle to the FDA;
 * :func:`find_periodic_orbit` -- periodic orbits of any contact pattern by shooting;
+* :func:`lattice_kink`, :func:`lattice_oscillon`, :func:`front_width` -- kinks and oscillons of
+  any contact pattern on lattices (settle, then shoot);
 * :func:`continue_branch`, :class:`Branch` -- continuation with folds and period doublings;
 * :func:`flat_basins` -- basins of attraction of the bouncing ball (one node);
 * :func:`solve_stick_flat`, :func:`solve_stick_lattice` -- the TPS for impact-and-stick contacts
@@ -59,6 +61,9 @@ _LAZY = {
     "load_branch": "continuation",
     "sweep": "parallel",
     "flat_basins": "basins",
+    "lattice_kink": "localized",
+    "lattice_oscillon": "localized",
+    "front_width": "localized",
     "solve_stick_flat": "tps_stick",
     "solve_stick_lattice": "tps_stick",
 }

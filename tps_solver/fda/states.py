@@ -1,9 +1,9 @@
 """Initial states for FDA runs: flat layers and the paper's kink initial condition (Sec. 4.3.1)."""
 import numpy as np
 
-from .._checks import check_nonnegative, check_real
+from .._checks import check_nonnegative, check_positive, check_real
 
-__all__ = ["flat_state", "kink_state"]
+__all__ = ["flat_state", "kink_state", "oscillon_state"]
 
 
 def flat_state(lattice, flat, t):
@@ -70,3 +70,48 @@ def kink_state(lattice, flat, t, width=2.0):
     else:
         theta = (x > 0).astype(float)
     return wl + theta * (wr - wl), zl + theta * (zr - zl)
+
+
+def oscillon_state(lattice, flat, t, r_core=1.0, width=0.5):
+    r"""Oscillon initial condition at time ``t``: phase ``t + T/2`` inside ``r_core``, ``t`` outside.
+
+    The radial analogue of :func:`kink_state`: the two flat states are joined by
+    linear interpolation of height and velocity across ``|r - r_core| < width/2``.
+
+    Parameters
+    ----------
+    lattice : Lattice
+        Axisymmetric lattice.
+    flat : FlatLayer
+        Or anything with ``velocity(t)``, ``height(t)`` and ``period``.
+    t : float
+    r_core : float
+        Core radius, > 0.
+    width : float
+        Width of the linear transition, >= 0.
+
+    Returns
+    -------
+    w, zeta : ndarray of float, shape (n_nodes,)
+
+    Examples
+    --------
+    >>> from tps_solver import FlatLayer, Lattice
+    >>> fl = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> lat = Lattice.axisymmetric(n_nodes=5, r_max=8.0, grid="uniform")
+    >>> w, z = oscillon_state(lat, fl, fl.t0 + 1.0, r_core=4.0, width=0.0)
+    >>> bool(z[0] == fl.height(fl.t0 + 1.0 + fl.period / 2) and z[-1] == fl.height(fl.t0 + 1.0))
+    True
+    """
+    t = check_real(t, "t")
+    width = check_nonnegative(width, "width")
+    r_core = check_positive(r_core, "r_core")
+    r = lattice.nodes
+    if width > 0.0:
+        theta = np.clip((r - r_core) / width + 0.5, 0.0, 1.0)          # 0 in the core, 1 outside
+    else:
+        theta = (r > r_core).astype(float)
+    t_in = t + 0.5 * flat.period
+    wo, zo = float(flat.velocity(t)), float(flat.height(t))
+    wi, zi = float(flat.velocity(t_in)), float(flat.height(t_in))
+    return wi + theta * (wo - wi), zi + theta * (zo - zi)

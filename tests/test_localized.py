@@ -1,0 +1,100 @@
+"""Kinks and oscillons on lattices by settling and shooting (tps_solver.localized)."""
+import numpy as np
+import pytest
+
+import tps_solver as tps
+from tps_solver.localized import front_width, interface_position, lattice_kink, lattice_oscillon
+
+
+@pytest.fixture(scope="module")
+def e0_kink():
+    lat = tps.Lattice.planar(n_nodes=6, length=40.0)
+    return lattice_kink(lat, Gamma=4.1, e=0.0, periods=4, multipliers=False)
+
+
+def test_e0_kink_is_periodic_and_antisymmetric(e0_kink):
+    """The kink maps to itself under x -> -x, t -> t + T/2 (a symmetry Newton does not impose)."""
+    orb = e0_kink
+    assert orb.converged and orb.localized and orb.residual < 1e-11
+    assert orb.contacts_per_node.tolist() == [2] * 6
+    ts = orb.t_start + orb.period * np.arange(16) / 16
+    Z = orb.height(ts)
+    Zs = orb.height(ts + 0.5 * orb.period)
+    assert np.max(np.abs(Z - Zs[:, ::-1])) < 1e-9
+    # one period of time stepping from the section state returns to it
+    run = tps.simulate(orb.lattice, orb.Gamma, orb.e, orb.w0, orb.zeta0, t_start=orb.t_start,
+                       t_end=orb.t_start + orb.period, stuck0=orb.stuck0)
+    assert np.max(np.abs(run.zeta - orb.zeta0)) < 1e-10 and np.max(np.abs(run.w - orb.w0)) < 1e-10
+
+
+def test_front_width_matches_interpolated_profile(e0_kink):
+    wl, wr = front_width(e0_kink, n_samples=64)
+    assert abs(wl - wr) < 1e-9
+    assert 8.0 < wl < 16.0                       # 10-90 % of a front spread over ~2 cells of 8
+
+
+@pytest.mark.parametrize("x, p, level, want", [
+    ([0.0, 1.0, 2.0], [0.0, 0.5, 1.0], 0.5, 1.0),
+    ([0.0, 1.0, 2.0], [2.0, 1.0, 0.0], 0.75, 1.5),
+    ([0.0, 2.0, 4.0, 6.0], [0.0, 0.0, 4.0, 4.0], 0.1, 2.2),
+    ([0.0, 1.0], [1.0, 3.0], 0.9, 0.9),
+])
+def test_interface_position_table(x, p, level, want):
+    assert interface_position(x, p, level) == pytest.approx(want, abs=4 * np.finfo(float).eps)
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(level=0.0), "level"), (dict(level=1.0), "level"),
+    (dict(profile=[1.0, 1.0, 1.0]), "profile"), (dict(x=[0.0, 1.0]), "x"),
+])
+def test_interface_position_bad_input(kw, name):
+    args = dict(x=[0.0, 1.0, 2.0], profile=[0.0, 1.0, 2.0], level=0.5)
+    args.update(kw)
+    with pytest.raises(ValueError, match=name):
+        interface_position(**args)
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda: lattice_kink(tps.Lattice.axisymmetric(n_nodes=5, r_max=8.0)), "lattice"),
+    (lambda: lattice_kink(tps.Lattice.planar(n_nodes=5, length=8.0), M=3), "M"),
+    (lambda: lattice_kink(tps.Lattice.planar(n_nodes=5, length=8.0), e=-0.1), "e"),
+    (lambda: lattice_kink(tps.Lattice.planar(n_nodes=5, length=8.0), cutoff=0.0), "cutoff"),
+    (lambda: lattice_kink(tps.Lattice.planar(n_nodes=5, length=8.0), cutoff=0.3, e=0.45,
+                          pattern="stick"), "pattern"),
+    (lambda: lattice_kink(tps.Lattice.planar(n_nodes=5, length=8.0), periods=-1), "periods"),
+    (lambda: lattice_kink(tps.Lattice.planar(n_nodes=5, length=8.0), Gamma=2.5, e=0.45,
+                          pattern="touch"), "pattern|touch"),
+    (lambda: lattice_oscillon(tps.Lattice.planar(n_nodes=5, length=8.0)), "lattice"),
+    (lambda: lattice_oscillon(tps.Lattice.axisymmetric(n_nodes=5, r_max=8.0), core_radius=9.0),
+     "core_radius"),
+])
+def test_bad_input_names_the_parameter(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+@pytest.mark.slow
+def test_e0_kink_dx2_matches_the_shooting_study():
+    """Gamma = 4.1, dx = 2: the numbers of validation/sections/shooting.md (front width 9.01)."""
+    lat = tps.Lattice.planar(n_nodes=21, length=40.0)
+    orb = lattice_kink(lat, Gamma=4.1, e=0.0, periods=10, max_iter=80, n_multipliers=4, dense_max=100)
+    assert orb.converged and orb.localized
+    assert orb.contacts_per_node.tolist() == [2] * 21
+    assert abs(front_width(orb)[0] - 9.01) < 0.01
+    assert abs(abs(orb.multipliers[0]) - 0.9828) < 2e-3
+
+
+def test_cli_lattice_kink(capsys):
+    from tps_solver.cli import main
+
+    assert main(["lattice-kink", "--dx", "8", "--periods", "4", "--multipliers", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "contacts per node and period (count: nodes) = {2: 6}" in out
+    assert "localized = True" in out and "stable = True" in out
+
+
+def test_cli_lattice_kink_bad_spacing(capsys):
+    from tps_solver.cli import main
+
+    assert main(["lattice-kink", "--dx", "-1"]) != 0
+    assert "--dx" in capsys.readouterr().err
