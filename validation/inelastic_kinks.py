@@ -189,7 +189,121 @@ def gamma_table(gammas=GAMMAS, dxs=DXS + (0.25,)):
     return rows
 
 
+def convergence(rows, which=0, rtol_monotone=0.0):
+    """Front width vs dx for one Gamma: successive differences, observed order, Richardson value.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Converged :func:`kink_row` rows of one Gamma (any dx order; dx halves between rows).
+    which : {0, 1}
+        The front width at the left (0) or right (1) far-field maximum.
+
+    Returns
+    -------
+    dict
+        ``dx`` and ``width`` (sorted by decreasing dx), ``diffs`` (w(dx) - w(dx/2)), ``orders``
+        (log2 of successive difference ratios), ``monotone`` (all differences of one sign),
+        ``richardson`` (w(dx_min) - d_last / (2**p - 1) with the last order p, only when the
+        sequence is monotone and 0.5 < p < 6; else NaN), ``verdict`` (str).
+    """
+    rr = sorted((r for r in rows if r.get("converged") and "width" in r), key=lambda r: -r["dx"])
+    dx = [r["dx"] for r in rr]
+    w = [float(r["width"][which]) for r in rr]
+    d = [w[i] - w[i + 1] for i in range(len(w) - 1)]
+    orders = [math.log2(abs(d[i] / d[i + 1])) if d[i + 1] != 0 else float("inf") for i in range(len(d) - 1)]
+    monotone = len(d) > 0 and (all(x > 0 for x in d) or all(x < 0 for x in d))
+    rich, verdict = float("nan"), ""
+    if len(d) < 2:
+        verdict = "fewer than three spacings: no order"
+    elif not monotone:
+        verdict = "not monotone in dx: no order fitted"
+    elif not 0.5 < orders[-1] < 6:
+        verdict = f"order {orders[-1]:.2f} not clean: no extrapolation"
+    else:
+        p = orders[-1]
+        rich = w[-1] - d[-1] / (2 ** p - 1)
+        verdict = f"monotone, last order {p:.2f}"
+    return dict(dx=dx, width=w, diffs=d, orders=orders, monotone=monotone, richardson=rich, verdict=verdict)
+
+
+def _flat_pair(Gamma, M, s, n_phase=64):
+    """Flat e = 0 states (w, zeta) at s and s + T/2, and the phase (in [s, s + T)) of largest height contrast."""
+    T = 2.0 * math.pi * M
+    ph = s + T * np.arange(n_phase) / n_phase
+    a = np.array([e0_flat_state(Gamma, M, p)[:2] for p in ph])
+    b = np.array([e0_flat_state(Gamma, M, p + 0.5 * T)[:2] for p in ph])
+    k = int(np.argmax(np.abs(a[:, 1] - b[:, 1])))
+    return a[0], b[0], float(ph[k]), a[k, 1], b[k, 1]
+
+
+def core_radius(nodes, zeta, z_in, z_out, level=0.5):
+    """Radius where theta = (zeta - z_out)/(z_in - z_out) first falls below ``level`` from the axis
+    (linear interpolation; 0 if theta(0) < level, nodes[-1] if it never falls)."""
+    th = (np.asarray(zeta, float) - z_out) / (z_in - z_out)
+    if th[0] < level:
+        return 0.0
+    below = np.flatnonzero(th < level)
+    if below.size == 0:
+        return float(nodes[-1])
+    i = int(below[0])
+    return float(nodes[i - 1] + (th[i - 1] - level) * (nodes[i] - nodes[i - 1]) / (th[i - 1] - th[i]))
+
+
+def oscillon_rates(Gamma=4.1, R0s=(10.0, 20.0), r_max=60.0, dr=1.0, periods=30, M=2, method="exact",
+                   width=2.0):
+    """e = 0 oscillon cores, time stepped on a uniform axisymmetric Neumann lattice.
+
+    The core ``r < R0`` starts on the flat e = 0 orbit shifted by half a period, the rest on the
+    unshifted orbit (joined linearly over ``width``), at lift-off + T/4.  Each period the height is
+    sampled at the phase of largest flat-layer height contrast and the core radius (theta = 0.5,
+    :func:`core_radius`) is recorded.
+
+    Returns rows: Gamma, R0, dr, r_max, method, seconds, radii (per period, list), rate (dR/dperiod,
+    least squares over the periods after the first 5 while the core exists and stays 3 dr off
+    the axis and the rim), rate_last10 (the same over the last 10 such periods), R_dRdk (half the
+    least-squares slope of R**2 over the same periods: constant for a curvature-driven collapse),
+    n_fit, R_end, status.
+    """
+    T = 2.0 * math.pi * M
+    s = math.asin(1.0 / Gamma) + 0.25 * T
+    (wo, zo), (wi, zi), ph, z_out, z_in = _flat_pair(Gamma, M, s)
+    n = int(round(r_max / dr)) + 1
+    lat = tps.Lattice.axisymmetric(n_nodes=n, r_max=r_max, grid="uniform")
+    rows = []
+    for R0 in R0s:
+        th = np.clip((R0 - lat.nodes) / width + 0.5, 0.0, 1.0)
+        w, z = wo + th * (wi - wo), zo + th * (zi - zo)
+        te = ph + T * np.arange(periods + 1)
+        tic = time.perf_counter()
+        run = tps.simulate(lat, Gamma, 0.0, w, z, t_start=s, t_end=te[-1] + 1e-9, method=method, t_eval=te,
+                           max_events_per_cycle=10 ** 7)
+        sec = time.perf_counter() - tic
+        R = np.array([core_radius(lat.nodes, zk, z_in, z_out) for zk in run.zeta_eval])
+        k = np.arange(R.size)
+        ok = (k >= 5) & (R > 3 * dr) & (R < r_max - 3 * dr)
+        rate = float(np.polyfit(k[ok], R[ok], 1)[0]) if ok.sum() >= 3 else float("nan")
+        kk = k[ok][-10:]
+        rate10 = float(np.polyfit(kk, R[kk], 1)[0]) if kk.size >= 3 else float("nan")
+        # curvature-driven collapse: R dR/dk = const  <=>  R**2 linear in k
+        half_r2 = float(0.5 * np.polyfit(k[ok], R[ok] ** 2, 1)[0]) if ok.sum() >= 3 else float("nan")
+        rows.append(dict(Gamma=float(Gamma), R0=float(R0), dr=float(dr), r_max=float(r_max), method=method,
+                         periods=periods, seconds=sec, status=int(run.status), radii=R.tolist(), rate=rate,
+                         rate_last10=rate10, R_dRdk=half_r2, n_fit=int(ok.sum()), R_end=float(R[-1]), sample_phase=ph, n_events=int(run.n_events)))
+    return rows
+
+
 if __name__ == "__main__":
+    if sys.argv[1:2] == ["oscillon"]:
+        G, dr = float(sys.argv[2]), float(sys.argv[3])
+        with _limits():
+            rows = oscillon_rates(G, dr=dr, periods=int(sys.argv[4]) if len(sys.argv) > 4 else 30)
+        os.makedirs(SCRATCH, exist_ok=True)
+        with open(os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}.json"), "w") as f:
+            json.dump(rows, f, indent=1)
+        for r in rows:
+            print(r["R0"], r["seconds"], r["rate"], r["rate_last10"], r["R_dRdk"], np.round(r["radii"], 2).tolist())
+
     if sys.argv[1:2] == ["run"]:
         row = run(float(sys.argv[2]), float(sys.argv[3]))
         print({k: v for k, v in row.items() if k != "pattern"})
