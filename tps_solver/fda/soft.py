@@ -309,6 +309,9 @@ class SoftIntegrator(Integrator):
         self._event_counts = np.zeros(self.n, np.int64)
         self._forecast = None
         self._cfg_cache = {}
+        self._lam2 = self._lam * self._lam
+        self._rows_cache = {}
+        self._rows_free = self._make_rows(np.zeros(self.n, bool))
 
     # ------------------------------------------------------------ linear algebra
     def _Lmul(self, u):
@@ -331,29 +334,42 @@ class SoftIntegrator(Integrator):
     def _make_config(self, mode):
         c = (mode == _CONTACT).astype(float)
         f = (mode == _FREE).astype(float)
-        rows_ok = (mode != _HELD).astype(float)
-        n, b, om2 = self.n, self.beta, self.omega0_sq
+        held = mode == _HELD
+        rows = self._rows_cache.get(held.tobytes()) if held.any() else self._rows_free
+        if rows is None:
+            rows = self._rows_cache[held.tobytes()] = self._make_rows(held)
+            if len(self._rows_cache) > 64:
+                self._rows_cache.clear()
+        cfg = _Config()
+        cfg.c, cfg.f = c, f
+        cfg.rows_ok, cfg.Ld, cfg.Ll, cfg.Lu, cfg.QLf, cfg.QUf = rows
+        cfg.QL, cfg.QU = cfg.QLf[:-1], cfg.QUf[:-1]
+        cfg.om2c = self.omega0_sq * c
+        cfg.dw = cfg.Ld - (2.0 * self.beta) * c         # diagonal of the w-row of A acting on w
+        cfg.dz = -cfg.om2c                              # ... acting on zeta
+        # stacked block-tridiagonal stage matrix 1 + h P1 + h^2 P2 (blocks separated by zeros)
+        cfg.P1 = np.multiply.outer(-self._lam, cfg.dw).ravel()
+        cfg.P2 = np.multiply.outer(self._lam2, cfg.om2c).ravel()
+        cfg.sgn = np.where(mode == _FREE, -1.0, 1.0)    # violation: -zeta (free), zeta (contact)
+        hidx = cfg.hidx = np.flatnonzero(held)          # held nodes: their free acceleration
+        n = self.n
+        cfg.him, cfg.hip = np.maximum(hidx - 1, 0), np.minimum(hidx + 1, n - 1)
+        cfg.hcols = np.concatenate((hidx, cfg.him, cfg.hip))
+        cfg.hLd = self._Ld[hidx]
+        cfg.hLl = np.where(hidx > 0, self._Ll[np.maximum(hidx - 1, 0)], 0.0)
+        cfg.hLu = np.where(hidx < n - 1, self._Lu[np.minimum(hidx, n - 2)], 0.0)
+        return cfg
+
+    def _make_rows(self, held):
+        """Rows of the operator with the held nodes' rows dropped, and the stacked off-diagonals."""
+        rows_ok = (~held).astype(float)
         Ld, Ll, Lu = self._Ld * rows_ok, self._Ll * rows_ok[1:], self._Lu * rows_ok[:-1]
         lam = self._lam[:, None]
-        cfg = _Config()
-        cfg.c, cfg.f, cfg.rows_ok = c, f, rows_ok
-        cfg.Ld, cfg.Ll, cfg.Lu = Ld, Ll, Lu
-        cfg.dw = Ld - 2.0 * b * c              # diagonal of the w-row of A acting on w
-        cfg.dz = -om2 * c                      # ... acting on zeta
-        # stacked block-tridiagonal stage matrix 1 + h P1 + h^2 P2 (blocks separated by zeros)
-        cfg.P1 = (lam * (2.0 * b * c - Ld)[None, :]).ravel()
-        cfg.P2 = (lam * lam * (om2 * c)[None, :]).ravel()
-        QL = np.zeros((lam.size, n), complex)
-        QU = np.zeros((lam.size, n), complex)
+        QL = np.zeros((lam.size, self.n), complex)
+        QU = np.zeros((lam.size, self.n), complex)
         QL[:, :-1] = -lam * Ll[None, :]
         QU[:, :-1] = -lam * Lu[None, :]
-        cfg.QLf, cfg.QUf = QL.ravel(), QU.ravel()           # with the trailing separator
-        cfg.QL, cfg.QU = cfg.QLf[:-1], cfg.QUf[:-1]
-        cfg.P012 = np.vstack((np.ones_like(cfg.P1), cfg.P1, cfg.P2))
-        cfg.P1_2, cfg.P2_2 = np.tile(cfg.P1, 2), np.tile(cfg.P2, 2)
-        cfg.QL_2, cfg.QU_2 = np.tile(cfg.QLf, 2)[:-1], np.tile(cfg.QUf, 2)[:-1]
-        cfg.om2c = om2 * c
-        return cfg
+        return rows_ok, Ld, Ll, Lu, QL.ravel(), QU.ravel()      # with the trailing separators
 
     def _rhs(self, t, w, z, cfg):
         dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
@@ -383,18 +399,36 @@ class SoftIntegrator(Integrator):
         muq = mu * (self._q if k == 1 else self._q2)
         ghat = (g @ self._Tinv_rep.T).ravel()                                     # (k m,)
         # right-hand sides (k m, n) = K @ [aw; f; om2 c w0] in one product
-        K = np.stack((muq, mu * ghat, -mu * muq), axis=1)
-        R = np.vstack((aw, cfg.f, cfg.om2c * w0))
-        rhs = K.real @ R + 1j * (K.imag @ R)
+        K = np.empty((k * m, 3), complex)
+        K[:, 0] = muq
+        K[:, 1] = mu * ghat
+        K[:, 2] = -mu * muq
+        R = np.empty((3, n))
+        R[0], R[1] = aw, cfg.f
+        np.multiply(cfg.om2c, w0, out=R[2])
+        rhs = K @ R
         if k == 1:
             h = hs[0]
-            diag = np.array([1.0, h, h * h]) @ cfg.P012
+            diag = cfg.P2 * (h * h)
+            diag += cfg.P1 * h
+            diag += 1.0
             dl, du = h * cfg.QL, h * cfg.QU
         else:
-            hr = np.repeat(hv, cfg.P1.size)
-            diag = 1.0 + hr * cfg.P1_2 + (hr * hr) * cfg.P2_2
-            hr = hr[:-1]
-            dl, du = hr * cfg.QL_2, hr * cfg.QU_2
+            diag = np.empty(k * m * n, complex)
+            dl = np.empty(k * m * n - 1, complex)
+            du = np.empty(k * m * n - 1, complex)
+            for i, h in enumerate(hs):
+                blk = slice(i * m * n, (i + 1) * m * n)
+                d = diag[blk]
+                np.multiply(cfg.P2, h * h, out=d)
+                d += cfg.P1 * h
+                d += 1.0
+                if i + 1 < k:
+                    np.multiply(cfg.QLf, h, out=dl[blk])
+                    np.multiply(cfg.QUf, h, out=du[blk])
+                else:
+                    np.multiply(cfg.QL, h, out=dl[i * m * n:])
+                    np.multiply(cfg.QU, h, out=du[i * m * n:])
         _, _, _, x, info = lapack.zgtsv(dl, diag, du, rhs.reshape(-1, 1), 1, 1, 1, 1)
         if info != 0:
             raise RuntimeError(f"soft integrator: singular stage system at t = {t0:.15g} (h = {hs})")
@@ -403,12 +437,13 @@ class SoftIntegrator(Integrator):
         Tr = self._Trep
         for i in range(k):
             mui, muqi = mu[i * m:(i + 1) * m], muq[i * m:(i + 1) * m]
+            Zi = Zw[i * m:(i + 1) * m]
             if stages is not None and not stages[i]:                 # the end point only
                 Te = Tr[-1]
-                Rr = (np.vstack((Te, Te * mui)) @ Zw[i * m:(i + 1) * m]).real  # (2, n)
+                Rr = (np.array((Te, Te * mui)) @ Zi).real                         # (2, n)
                 out.append((Rr[0] + w0, Rr[1] + z0 + (Te @ muqi).real * w0, None, None))
                 continue
-            Rr = (np.vstack((Tr, Tr * mui)) @ Zw[i * m:(i + 1) * m]).real       # (2 s, n)
+            Rr = (np.concatenate((Tr, Tr * mui)) @ Zi).real                     # (2 s, n)
             Yw = Rr[:s] + w0
             Yz = Rr[s:] + z0 + np.multiply.outer((Tr @ muqi).real, w0)
             out.append((Yw[-1].copy(), Yz[-1].copy(), Yw, Yz))
@@ -417,31 +452,39 @@ class SoftIntegrator(Integrator):
     # --------------------------------------------------------------- violations
     def _violation(self, t, w, z, mode, cfg, with_rate=True):
         """Violation v (crossing when v turns > 0) and its rate for every node."""
-        v = np.where(mode == _FREE, -z, z)
-        held = mode == _HELD
-        if with_rate:
-            dv = np.where(mode == _FREE, -w, w)
-        if held.any():
-            a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
-            v = np.where(held, a, v)
-            if with_rate:
-                dw, _ = self._rhs(t, w, z, cfg)
-                da = self._Lmul(dw) + math.cos(t)
-                dv = np.where(held, da, dv)
-        return (v, dv) if with_rate else v
+        v = z * cfg.sgn
+        hi = cfg.hidx
+        if hi.size:
+            v[hi] = self._held_accel(w, cfg) + (math.sin(t) - 1.0 / self.Gamma)
+        if not with_rate:
+            return v
+        dv = w * cfg.sgn
+        if hi.size:
+            dw, _ = self._rhs(t, w, z, cfg)
+            dv[hi] = self._held_accel(dw, cfg) + math.cos(t)
+        return v, dv
 
-    def _grid_violation(self, t0, h, w0, z0, Yw, Yz, mode):
-        """Violation on the dense grid of one step: times (G,), values (G, n)."""
+    def _held_accel(self, u, cfg):
+        """Rows ``cfg.hidx`` of the full :math:`\\underline L u`, u of shape (..., n)."""
+        return cfg.hLd * u[..., cfg.hidx] + cfg.hLl * u[..., cfg.him] + cfg.hLu * u[..., cfg.hip]
+
+    def _grid_violation(self, t0, h, w0, z0, Yw, Yz, cfg):
+        """Violation on the dense grid of one step: times (G,), values (G, n).
+
+        The last grid point is the step end (``theta = 1``: the last stage, exactly).
+        """
         P = self._dense
-        Zg = P @ np.vstack((z0[None, :], Yz))
-        v = np.where(mode == _FREE, -Zg, Zg)
+        Zg = P[:, 1:] @ Yz
+        Zg += np.multiply.outer(P[:, 0], z0)
+        Zg *= cfg.sgn
         tg = t0 + self._theta * h
-        held = mode == _HELD
-        if held.any():
-            Wg = P @ np.vstack((w0[None, :], Yw))
-            a = self._Lmul(Wg) + (np.sin(tg) - 1.0 / self.Gamma)[:, None]
-            v = np.where(held[None, :], a, v)
-        return tg, v
+        if cfg.hidx.size:
+            cols = cfg.hcols
+            Wg = P[:, 1:] @ Yw[:, cols] + np.multiply.outer(P[:, 0], w0[cols])
+            k = cfg.hidx.size
+            a = cfg.hLd * Wg[:, :k] + cfg.hLl * Wg[:, k:2 * k] + cfg.hLu * Wg[:, 2 * k:]
+            Zg[:, cfg.hidx] = a + (np.sin(tg) - 1.0 / self.Gamma)[:, None]
+        return tg, Zg
 
     # ------------------------------------------------------------------ driver API
     def _initial_mode(self, w, z, stuck):
@@ -592,11 +635,10 @@ class SoftIntegrator(Integrator):
                 self._h = h * grow
             # scan both halves for crossings
             v0 = np.minimum(self._violation(t, w, z, mode, cfg, with_rate=False), 0.0)
-            tga, va = self._grid_violation(t, hh, w, z, Ywa, Yza, mode)
-            tgb, vb = self._grid_violation(t_mid, h2, wa, za, Ywb, Yzb, mode)
+            tga, va = self._grid_violation(t, hh, w, z, Ywa, Yza, cfg)
+            tgb, vb = self._grid_violation(t_mid, h2, wa, za, Ywb, Yzb, cfg)
             tg = np.concatenate(([t], tga[:-1], [t_mid], tgb[:-1], [t_new]))
-            vg = np.vstack((v0[None, :], va[:-1], self._violation(t_mid, wa, za, mode, cfg, False)[None, :],
-                            vb[:-1], self._violation(t_new, wb, zb, mode, cfg, False)[None, :]))
+            vg = np.concatenate((v0[None, :], va, vb))
             pos = vg > 0.0
             hit = pos.any(axis=0)
             if hit.any():
@@ -723,16 +765,23 @@ class SoftIntegrator(Integrator):
         coef = self._vinv @ vals                          # ascending monomial coefficients, (s+1, k)
         x = np.clip(guess, lo, hi)
         deg = coef.shape[0] - 1
+        dcoef = coef[1:] * np.arange(1, deg + 1)[:, None]
         for _ in range(5):
-            p = coef[deg] * np.ones_like(x)
-            dp = np.zeros_like(x)
+            p = coef[deg].copy()
+            dp = dcoef[deg - 1].copy()
             for m in range(deg - 1, -1, -1):
-                dp = dp * x + p
-                p = p * x + coef[m]
+                p *= x
+                p += coef[m]
+                if m:
+                    dp *= x
+                    dp += dcoef[m - 1]
             with np.errstate(divide="ignore", invalid="ignore"):
-                xn = x - p / dp
+                step = p / dp
+            xn = x - step
             good = np.isfinite(xn) & (xn >= lo) & (xn <= hi)
             x = np.where(good, xn, x)
+            if not np.any(good & (np.abs(step) > 1e-15)):
+                break
         return x
 
     def _simultaneous(self, te, we, ze, mode, cfg, j):
