@@ -310,8 +310,11 @@ class SoftIntegrator(Integrator):
         self._forecast = None
         self._cfg_cache = {}
         self._lam2 = self._lam * self._lam
+        self._mlam = -self._lam
         self._rows_cache = {}
-        self._rows_free = self._make_rows(np.zeros(self.n, bool))
+        self._is_contact = np.array([0.0, 1.0, 0.0])   # lookup tables indexed by mode
+        self._is_free = np.array([1.0, 0.0, 0.0])
+        self._sign = np.array([-1.0, 1.0, 1.0])
 
     # ------------------------------------------------------------ linear algebra
     def _Lmul(self, u):
@@ -332,36 +335,29 @@ class SoftIntegrator(Integrator):
         return cfg
 
     def _make_config(self, mode):
-        c = (mode == _CONTACT).astype(float)
-        f = (mode == _FREE).astype(float)
         held = mode == _HELD
-        rows = self._rows_cache.get(held.tobytes()) if held.any() else self._rows_free
+        key = held.tobytes()
+        rows = self._rows_cache.get(key)
         if rows is None:
-            rows = self._rows_cache[held.tobytes()] = self._make_rows(held)
             if len(self._rows_cache) > 64:
                 self._rows_cache.clear()
+            rows = self._rows_cache[key] = self._make_rows(held)
         cfg = _Config()
-        cfg.c, cfg.f = c, f
-        cfg.rows_ok, cfg.Ld, cfg.Ll, cfg.Lu, cfg.QLf, cfg.QUf = rows
-        cfg.QL, cfg.QU = cfg.QLf[:-1], cfg.QUf[:-1]
+        cfg.__dict__.update(rows)
+        c = cfg.c = self._is_contact[mode]
+        cfg.f = self._is_free[mode]
+        cfg.sgn = self._sign[mode]                      # violation: -zeta (free), zeta (contact)
         cfg.om2c = self.omega0_sq * c
         cfg.dw = cfg.Ld - (2.0 * self.beta) * c         # diagonal of the w-row of A acting on w
         cfg.dz = -cfg.om2c                              # ... acting on zeta
         # stacked block-tridiagonal stage matrix 1 + h P1 + h^2 P2 (blocks separated by zeros)
-        cfg.P1 = np.multiply.outer(-self._lam, cfg.dw).ravel()
+        cfg.P1 = np.multiply.outer(self._mlam, cfg.dw).ravel()
         cfg.P2 = np.multiply.outer(self._lam2, cfg.om2c).ravel()
-        cfg.sgn = np.where(mode == _FREE, -1.0, 1.0)    # violation: -zeta (free), zeta (contact)
-        hidx = cfg.hidx = np.flatnonzero(held)          # held nodes: their free acceleration
-        n = self.n
-        cfg.him, cfg.hip = np.maximum(hidx - 1, 0), np.minimum(hidx + 1, n - 1)
-        cfg.hcols = np.concatenate((hidx, cfg.him, cfg.hip))
-        cfg.hLd = self._Ld[hidx]
-        cfg.hLl = np.where(hidx > 0, self._Ll[np.maximum(hidx - 1, 0)], 0.0)
-        cfg.hLu = np.where(hidx < n - 1, self._Lu[np.minimum(hidx, n - 2)], 0.0)
         return cfg
 
     def _make_rows(self, held):
-        """Rows of the operator with the held nodes' rows dropped, and the stacked off-diagonals."""
+        """Constants of a held set: rows of the operator (held rows dropped), stacked off-diagonals,
+        and the data of the held nodes' free accelerations."""
         rows_ok = (~held).astype(float)
         Ld, Ll, Lu = self._Ld * rows_ok, self._Ll * rows_ok[1:], self._Lu * rows_ok[:-1]
         lam = self._lam[:, None]
@@ -369,7 +365,14 @@ class SoftIntegrator(Integrator):
         QU = np.zeros((lam.size, self.n), complex)
         QL[:, :-1] = -lam * Ll[None, :]
         QU[:, :-1] = -lam * Lu[None, :]
-        return rows_ok, Ld, Ll, Lu, QL.ravel(), QU.ravel()      # with the trailing separators
+        QL, QU = QL.ravel(), QU.ravel()                 # with the trailing separators
+        n = self.n
+        hidx = np.flatnonzero(held)
+        him, hip = np.maximum(hidx - 1, 0), np.minimum(hidx + 1, n - 1)
+        return dict(rows_ok=rows_ok, Ld=Ld, Ll=Ll, Lu=Lu, QLf=QL, QUf=QU, QL=QL[:-1], QU=QU[:-1],
+                    hidx=hidx, him=him, hip=hip, hcols=np.concatenate((hidx, him, hip)),
+                    hLd=self._Ld[hidx], hLl=np.where(hidx > 0, self._Ll[him.clip(max=n - 2)], 0.0),
+                    hLu=np.where(hidx < n - 1, self._Lu[hidx.clip(max=n - 2)], 0.0))
 
     def _rhs(self, t, w, z, cfg):
         dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
