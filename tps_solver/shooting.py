@@ -60,6 +60,7 @@ import numpy as np
 
 from .orbit import STATUS, PeriodicOrbit
 from ._checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from .soft_monodromy import SoftMonodromy
 
 __all__ = ["find_periodic_orbit", "ShootingOrbit"]
 
@@ -111,6 +112,9 @@ class ShootingOrbit(PeriodicOrbit):
         multipliers 0, which are not listed.
     multipliers_kind : str
         ``"all (dense)"``, ``"leading (Arnoldi)"`` or ``"none"``; the reason is in ``message``.
+        Soft contact: ``"all (exact)"`` or ``"leading (exact)"`` -- the product of matrix
+        exponentials and saltation matrices of :class:`~tps_solver.soft_monodromy.SoftMonodromy`
+        (ARPACK for the leading ones), no finite differences; Newton uses its exact product too.
     multiplier_residuals : ndarray of float or None
         Arnoldi only: Ritz residual estimates of the reported multipliers.
     arnoldi_dim : int
@@ -647,6 +651,12 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
                         h = -h
                 return (pm(x + h * v)[0] - Px) / h - v
 
+            if method == "soft":        # the exact product (tps_solver.soft_monodromy), no differences
+                lin = SoftMonodromy.from_run(pm.run(x), *pm.state(x), pm.t_s)
+
+                def jv(v, lin=lin):
+                    return lin.jv(v) - v
+
             d, rel, used = _gmres(jv, -F, gmres_rtol, krylov_dim)
             f0 = float(np.linalg.norm(F))
             # backtracking on phi(lam) = |F(x + lam d)|^2 with quadratic interpolation
@@ -784,7 +794,12 @@ def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, d
         notes.append(reason + f"; no multipliers; perturbation growth {out.growth_factor:.4g} per period "
                      f"over {growth_periods} periods instead")
         return
-    if 2 * m <= dense_max:
+    if soft:        # exact: matrix exponentials and saltation matrices (tps_solver.soft_monodromy)
+        lin = SoftMonodromy(pm.lattice, pm.Gamma, pm.e, pm.kw["cutoff"], pm.t_s, pm.t_s + pm.T, pm.state(x)[1],
+                            pm.run(x).events if out.events is None else out.events, dense_max=max(dense_max, 400))
+        mu = lin.multipliers(None if 2 * m <= dense_max else min(n_mult, 2 * m))
+        kind = "all (exact)" if 2 * m <= dense_max else "leading (exact)"
+    elif 2 * m <= dense_max:
         J = np.empty((2 * m, 2 * m))
         for k in range(2 * m):
             hk = h
