@@ -58,6 +58,7 @@ from ._result import Bunch
 from ._checks import check_choice, check_int, check_positive
 from .budget import blas_threads, small_dense
 from .fda import Lattice, flat_state, simulate
+from .soft_monodromy import soft_monodromy
 
 __all__ = ["check_stability", "StabilityResult"]
 
@@ -80,7 +81,9 @@ class StabilityResult(Bunch):
     multipliers : ndarray of complex
         Period-map multipliers where the map is differentiable, by decreasing modulus.
     multipliers_kind : str
-        ``"full period map"``, ``"uniform mode"`` or ``"none"``.
+        ``"full period map"``, ``"uniform mode"`` or ``"none"``.  With ``method="soft"`` both come
+        from the exact monodromy (:class:`~tps_solver.soft_monodromy.SoftMonodromy`: matrix
+        exponentials and saltation matrices, no finite differences; the message says so).
     uniform_multipliers : ndarray of complex, shape (2,) or (0,)
         Multipliers of the uniform (flat) mode, for flat layers.
     differentiable : bool or None
@@ -449,18 +452,28 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
             report(stage)
         return step
 
+    lin = None
+    if method == "soft" and not interrupted and (jacobian or (flat is not None and flat_input)):
+        try:        # the exact linearisation (tps_solver.soft_monodromy): no finite differences
+            lin = soft_monodromy(lattice, Gamma, e, w0=w0, zeta0=z0, t_start=t_s, period=T, **kw)
+            finish_stage(sum(p for name, p in stages if name in ("uniform mode", "jacobian")))
+            report("jacobian" if jacobian else "uniform mode")
+            notes.append("multipliers from the exact soft monodromy (matrix exponentials and saltation matrices)")
+        except KeyboardInterrupt:
+            interrupted = True
     if flat is not None and flat_input and not interrupted:
         try:
-            uniform = _uniform_multipliers(lattice, Gamma, e, w0, z0, t_s, T, method, kw,
-                                           tick=tick("uniform mode"))
+            uniform = (lin.uniform_multipliers() if lin is not None else
+                       _uniform_multipliers(lattice, Gamma, e, w0, z0, t_s, T, method, kw, tick=tick("uniform mode")))
             multipliers, kind = uniform, "uniform mode"
         except KeyboardInterrupt:
             interrupted = True
     Jp = None
     if jacobian and not interrupted:
         try:
-            Jp, Jm = _full_jacobian(lattice, Gamma, e, w0, z0, t_s, T, method, kw, jacobian_step,
-                                    tick=tick("jacobian"))
+            Jp, Jm = ((lin.matrix(), lin.matrix()) if lin is not None else
+                      _full_jacobian(lattice, Gamma, e, w0, z0, t_s, T, method, kw, jacobian_step,
+                                     tick=tick("jacobian")))
         except KeyboardInterrupt:
             interrupted = True
     if Jp is not None:

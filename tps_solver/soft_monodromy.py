@@ -433,6 +433,21 @@ class SoftMonodromy:
         Y = self.jv(U)
         return np.vstack((Y[:n].mean(axis=0), Y[n:].mean(axis=0)))
 
+    def uniform_multipliers(self):
+        """Eigenvalues of :meth:`uniform_block` by decreasing modulus, shape (2,), complex.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import tps_solver as tps
+        >>> lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+        >>> J = soft_monodromy(lat, 2.5, 0.45, 0.3, np.zeros(3), np.full(3, 5.0), 0.0, 1.0)
+        >>> J.uniform_multipliers().tolist()           # free flight of a uniform state
+        [(1+0j), (1+0j)]
+        """
+        mu = np.linalg.eigvals(self.uniform_block()).astype(complex)
+        return mu[np.argsort(-np.abs(mu), kind="stable")]
+
     def multipliers(self, k=None, tol=1e-12):
         """Floquet multipliers by decreasing modulus.
 
