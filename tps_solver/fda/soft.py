@@ -311,6 +311,9 @@ class SoftIntegrator(Integrator):
         self._cfg_cache = {}
         self._lam2 = self._lam * self._lam
         self._mlam = -self._lam
+        self._qG = self._q / self.Gamma
+        self._Te2 = np.array((self._Trep[-1], self._Trep[-1]))
+        self._cT = (self._Trep @ (self._lam * self._q)).real     # T diag(lam) T^-1 1 = A 1 = c
         self._rows_cache = {}
         self._is_contact = np.array([0.0, 1.0, 0.0])   # lookup tables indexed by mode
         self._is_free = np.array([1.0, 0.0, 0.0])
@@ -384,31 +387,41 @@ class SoftIntegrator(Integrator):
         """One Radau IIA step; returns (w1, z1, Yw, Yz) with stage values of shape (s, n)."""
         return self._steps(t0, (h,), w0, z0, cfg)[0]
 
-    def _steps(self, t0, hs, w0, z0, cfg, stages=None):
+    def _start(self, w0, z0, cfg):
+        """The state part of the stage right-hand sides, shape (3, n): :math:`A_C y_0` (w-rows), f, omega0^2 c w0."""
+        R = np.empty((3, self.n))
+        aw = R[0]
+        np.multiply(cfg.dw, w0, out=aw)
+        aw += cfg.dz * z0
+        aw[1:] += cfg.Ll * w0[:-1]
+        aw[:-1] += cfg.Lu * w0[1:]
+        R[1] = cfg.f
+        np.multiply(cfg.om2c, w0, out=R[2])
+        return R
+
+    def _steps(self, t0, hs, w0, z0, cfg, stages=None, R=None):
         """Radau IIA steps of sizes ``hs`` (1 or 2 of them) from the same start, in one ``zgtsv`` call.
 
         Returns a list of (w1, z1, Yw, Yz), stage values of shape (s, n); ``stages[i]`` False
-        skips the stage values of step i (then ``Yw = Yz = None``).
+        skips the stage values of step i (then ``Yw = Yz = None``).  ``R``: ``_start(w0, z0, cfg)``
+        if already known.
         """
         k = len(hs)
         self.n_steps += k
         n, m, s = self.n, self._lam.size, self.stages
-        aw = cfg.dw * w0 + cfg.dz * z0
-        aw[1:] += cfg.Ll * w0[:-1]
-        aw[:-1] += cfg.Lu * w0[1:]
+        if R is None:
+            R = self._start(w0, z0, cfg)
         hv = np.array(hs, float)
-        g = np.sin(t0 + np.multiply.outer(hv, self._c)) - 1.0 / self.Gamma      # (k, s)
+        g = np.sin(t0 + np.multiply.outer(hv, self._c))                          # (k, s)
         mu = np.multiply.outer(hv, self._lam).ravel()                             # (k m,)
-        muq = mu * (self._q if k == 1 else self._q2)
-        ghat = (g @ self._Tinv_rep.T).ravel()                                     # (k m,)
         # right-hand sides (k m, n) = K @ [aw; f; om2 c w0] in one product
         K = np.empty((k * m, 3), complex)
-        K[:, 0] = muq
-        K[:, 1] = mu * ghat
-        K[:, 2] = -mu * muq
-        R = np.empty((3, n))
-        R[0], R[1] = aw, cfg.f
-        np.multiply(cfg.om2c, w0, out=R[2])
+        muq = K[:, 0]
+        np.multiply(mu, self._q if k == 1 else self._q2, out=muq)
+        ghat = (g @ self._Tinv_rep.T - self._qG).ravel()                        # T^-1 (g(t0 + c h))
+        np.multiply(mu, ghat, out=K[:, 1])
+        np.multiply(mu, muq, out=K[:, 2])
+        K[:, 2] *= -1.0
         rhs = K @ R
         if k == 1:
             h = hs[0]
@@ -439,16 +452,20 @@ class SoftIntegrator(Integrator):
         out = []
         Tr = self._Trep
         for i in range(k):
-            mui, muqi = mu[i * m:(i + 1) * m], muq[i * m:(i + 1) * m]
+            mui, hi = mu[i * m:(i + 1) * m], hs[i]
             Zi = Zw[i * m:(i + 1) * m]
             if stages is not None and not stages[i]:                 # the end point only
-                Te = Tr[-1]
-                Rr = (np.array((Te, Te * mui)) @ Zi).real                         # (2, n)
-                out.append((Rr[0] + w0, Rr[1] + z0 + (Te @ muqi).real * w0, None, None))
+                E = self._Te2.copy()
+                E[1] *= mui
+                Rr = (E @ Zi).real                                                # (2, n)
+                z1 = Rr[1] + z0
+                z1 += (hi * self._cT[-1]) * w0                    # (T diag(mu) T^-1 1)_s w0 = h c_s w0
+                out.append((Rr[0] + w0, z1, None, None))
                 continue
             Rr = (np.concatenate((Tr, Tr * mui)) @ Zi).real                     # (2 s, n)
             Yw = Rr[:s] + w0
-            Yz = Rr[s:] + z0 + np.multiply.outer((Tr @ muqi).real, w0)
+            Yz = Rr[s:] + z0
+            Yz += np.multiply.outer(hi * self._cT, w0)
             out.append((Yw[-1].copy(), Yz[-1].copy(), Yw, Yz))
         return out
 
@@ -466,6 +483,15 @@ class SoftIntegrator(Integrator):
             dw, _ = self._rhs(t, w, z, cfg)
             dv[hi] = self._held_accel(dw, cfg) + math.cos(t)
         return v, dv
+
+    def _violation_at(self, j, t, w, z, cfg):
+        """Violation and its rate of node j alone (floats), as :meth:`_violation`."""
+        if cfg.sgn[j] < 0.0:
+            return -float(z[j]), -float(w[j])
+        if cfg.rows_ok[j] != 0.0:
+            return float(z[j]), float(w[j])
+        v, dv = self._violation(t, w, z, None, cfg)
+        return float(v[j]), float(dv[j])
 
     def _held_accel(self, u, cfg):
         """Rows ``cfg.hidx`` of the full :math:`\\underline L u`, u of shape (..., n)."""
@@ -606,12 +632,13 @@ class SoftIntegrator(Integrator):
         order = self._order
         while True:
             t_target = t_stop if k_eval >= t_eval.size else min(t_stop, t_eval[k_eval])
+            R0 = self._start(w, z, cfg)
             if fc is not None:
                 # the previous trial step predicted more crossings: go straight to the next one
-                found = self._from_forecast(t, w, z, mode, cfg, fc, t_target)
+                found = self._from_forecast(t, w, z, mode, cfg, fc, t_target, R0)
                 fc = None
                 if found is not None:
-                    return self._finish(t, w, z, mode, cfg, *found, t_eval, k_eval, samples, events)
+                    return self._finish(t, w, z, mode, cfg, *found, t_eval, k_eval, samples, events, R0)
             h = min(self._h, self.max_step, t_target - t)
             last = h >= t_target - t
             # step ends are floats and steps are their exact differences (no drift of t)
@@ -620,7 +647,7 @@ class SoftIntegrator(Integrator):
             t_mid = t + 0.5 * h
             hh, h2 = t_mid - t, t_new - t_mid
             # trial step and two half steps (error estimate)
-            (w1, z1, _, _), (wa, za, Ywa, Yza) = self._steps(t, (h, hh), w, z, cfg, (False, True))
+            (w1, z1, _, _), (wa, za, Ywa, Yza) = self._steps(t, (h, hh), w, z, cfg, (False, True), R0)
             wb, zb, Ywb, Yzb = self._step(t_mid, h2, wa, za, cfg)
             scale = self.atol + self.rtol * np.maximum(np.abs(np.concatenate((w, z))),
                                                        np.abs(np.concatenate((wb, zb))))
@@ -661,9 +688,10 @@ class SoftIntegrator(Integrator):
                             (tg[k[sel]] - ts_) / hs_, (guess[sel] - ts_) / hs_)
                 i = int(np.argmin(guess))
                 j = int(nodes[i])
-                he, we, ze = self._locate(t, w, z, mode, cfg, j, float(guess[i]) - t, float(tg[k[i]]) - t)
+                he, we, ze = self._locate(t, w, z, mode, cfg, j, float(guess[i]) - t, float(tg[k[i]]) - t,
+                                          R=R0)
                 fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": t_new}
-                return self._finish(t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events)
+                return self._finish(t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events, R0)
             # accept the two half steps (the more accurate value)
             t, w, z = t_new, wb, zb
             if k_eval < t_eval.size and t_eval[k_eval] == t:
@@ -672,7 +700,7 @@ class SoftIntegrator(Integrator):
             if t >= t_stop:
                 return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
 
-    def _from_forecast(self, t, w, z, mode, cfg, fc, t_target):
+    def _from_forecast(self, t, w, z, mode, cfg, fc, t_target, R0):
         """Locate the next predicted crossing without a trial step; None if the prediction fails."""
         ok = (fc["mode"] == mode[fc["nodes"]]) & (fc["guess"] < fc["t_limit"])
         if not ok.any():
@@ -683,21 +711,21 @@ class SoftIntegrator(Integrator):
         if guess[i] - t > h_max or h_max <= 0.0:
             return None
         j = int(nodes[i])
-        res = self._locate(t, w, z, mode, cfg, j, max(float(guess[i]) - t, 0.0), h_max, verified=False)
+        res = self._locate(t, w, z, mode, cfg, j, max(float(guess[i]) - t, 0.0), h_max, verified=False, R=R0)
         if res is None:
             return None
         he, we, ze = res
         fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": fc["t_limit"]}
         return j, he, we, ze, fc
 
-    def _finish(self, t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events):
+    def _finish(self, t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events, R0=None):
         """Complete a switch located at t + he (node j): simultaneous nodes, sticking rule, Step."""
         for _ in range(4 * self.n + 4):
             ev, early, dt_early = self._simultaneous(t + he, we, ze, mode, cfg, j)
             if early < 0:
                 break
             j = early
-            he, we, ze = self._locate(t, w, z, mode, cfg, j, he - dt_early, he)
+            he, we, ze = self._locate(t, w, z, mode, cfg, j, he - dt_early, he, R=R0)
         else:
             raise RuntimeError(f"soft integrator: switch search stalled after t = {t:.15g}; "
                                "try a smaller max_step")
@@ -724,7 +752,7 @@ class SoftIntegrator(Integrator):
         return Step(t=te, w=we, zeta=ze, samples=samples, events=events, stuck=mode != _FREE)
 
     # ------------------------------------------------------------ event location
-    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi, verified=True):
+    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi, verified=True, R=None):
         """Safeguarded Newton in the step size h for the crossing of node j in (0, h_hi].
 
         Every evaluation is a full collocation step from ``t0``; h is kept relative to ``t0``, so the
@@ -738,9 +766,8 @@ class SoftIntegrator(Integrator):
                 return None
             if hk <= 0.0:
                 hk = 0.5 * hi
-            we, ze, _, _ = self._steps(t0, (hk,), w0, z0, cfg, (False,))[0]
-            v, dv = self._violation(t0 + hk, we, ze, mode, cfg)
-            vj, dvj = float(v[j]), float(dv[j])
+            we, ze, _, _ = self._steps(t0, (hk,), w0, z0, cfg, (False,), R)[0]
+            vj, dvj = self._violation_at(j, t0 + hk, we, ze, cfg)
             if vj > 0.0:
                 hi = hk
                 verified = True
