@@ -421,7 +421,7 @@ def plot_orbit_period(orbit, path, n_times=200, n_snapshots=6, dpi=120):
     return path
 
 
-def contact_pattern_figure(orbit, trigger_tol=1e-9):
+def contact_pattern_figure(orbit, trigger_tol=1e-9, zoom=True):
     r"""Contact pattern of a lattice periodic orbit: node position vs time over one period.
 
     Blank is flight; a thick bar is a stuck interval (landing to stick until lift-off); a dot
@@ -437,6 +437,9 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9):
         ``method``, ``converged``, ``residual``, ``status``).
     trigger_tol : float
         Time tolerance for a triggered lift-off.
+    zoom : bool
+        Add one panel per cluster of events (events closer than T/8 form a cluster; at most
+        three), zoomed in time; the first panel always shows the whole period.
 
     Returns
     -------
@@ -456,6 +459,8 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9):
     >>> [(c.get_label(), len(c.get_segments() if hasattr(c, "get_segments") else c.get_offsets()))
     ...  for c in ax.collections]
     [('stuck', 3), ('touch-and-go', 3), ('triggered lift-off', 0)]
+    >>> len(fig.axes)                     # the period, then zooms on the sticks and on the touch-and-go
+    3
     >>> plt.close(fig)
     """
     plt = _pyplot()
@@ -464,19 +469,26 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9):
     t0 = float(orbit.t_start)
     ev = orbit.events
     header, space = _orbit_header(orbit)
-    fig, ax = plt.subplots(figsize=(8, 5.5), layout="constrained")
-    dxm = float(np.min(np.diff(x))) if x.size > 1 else 1.0
-    ivs = list(orbit.sticking_intervals)
-    ax.vlines([x[j] for j, _, _ in ivs], [b / math.pi for _, b, _ in ivs], [e_ / math.pi for _, _, e_ in ivs],
-              colors="k", lw=max(1.0, min(6.0, 300.0 / x.size)), label="stuck")
     if ev is not None and len(ev):
         t = np.asarray(ev.t, dtype=float)
         node = np.asarray(ev.node, dtype=int)
         kind = np.asarray(ev.kind).astype(str)
     else:
         t, node, kind = np.empty(0), np.empty(0, int), np.empty(0, str)
+    windows = [(t0, t0 + T)]
+    if zoom and t.size:
+        ts = np.sort(t)
+        cut = np.flatnonzero(np.diff(ts) > T / 8)
+        starts = np.concatenate(([0], cut + 1))
+        ends = np.concatenate((cut, [ts.size - 1]))
+        for a, b in list(zip(starts, ends))[:3]:
+            pad = max(0.1 * (ts[b] - ts[a]), 1e-3 * T)
+            windows.append((ts[a] - pad, ts[b] + pad))
+    fig, axes = plt.subplots(1, len(windows), figsize=(6.5 + 4.0 * (len(windows) - 1), 5.5),
+                             layout="constrained", squeeze=False)
+    dxm = float(np.min(np.diff(x))) if x.size > 1 else 1.0
+    ivs = list(orbit.sticking_intervals)
     imp = kind == "impact"
-    ax.scatter(x[node[imp]], t[imp] / math.pi, s=12, c="C3", label="touch-and-go", zorder=3)
     landing = (kind == "impact") | (kind == "stick")
     trig = []
     for i in np.flatnonzero(kind == "liftoff"):
@@ -486,18 +498,26 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9):
             if np.min(d) < trigger_tol:
                 trig.append(i)
     trig = np.asarray(trig, dtype=int)
-    ax.scatter(x[node[trig]], t[trig] / math.pi, s=30, marker="^", facecolors="none", edgecolors="C0",
-               label="triggered lift-off", zorder=4)
-    ax.set_xlim(x[0] - dxm, x[-1] + dxm)
-    ax.set_ylim(t0 / math.pi, (t0 + T) / math.pi)
-    ax.set_xlabel(f"${space}$ (viscous lengths)")
-    ax.set_ylabel(r"time $\omega t/\pi$ (one period from the section)")
-    ax.set_title(header + "\ncontact pattern: blank = flying", fontsize=9)
-    ax.legend(fontsize=8, loc="upper right")
+    for k, (ax, (ta, tb)) in enumerate(zip(axes[0], windows)):
+        ax.vlines([x[j] for j, _, _ in ivs], [b / math.pi for _, b, _ in ivs],
+                  [e_ / math.pi for _, _, e_ in ivs], colors="k", lw=max(1.0, min(6.0, 300.0 / x.size)),
+                  label="stuck")
+        ax.scatter(x[node[imp]], t[imp] / math.pi, s=12, c="C3", label="touch-and-go", zorder=3)
+        ax.scatter(x[node[trig]], t[trig] / math.pi, s=30, marker="^", facecolors="none", edgecolors="C0",
+                   label="triggered lift-off", zorder=4)
+        ax.set_xlim(x[0] - dxm, x[-1] + dxm)
+        ax.set_ylim(ta / math.pi, tb / math.pi)
+        ax.set_xlabel(f"${space}$ (viscous lengths)")
+        ax.set_ylabel(r"time $\omega t/\pi$" + (" (one period from the section)" if k == 0 else " (zoom)"))
+        if k == 0:
+            ax.legend(fontsize=8, loc="upper right")
+        else:
+            ax.set_title(f"zoom {k}", fontsize=9)
+    fig.suptitle(header + "\ncontact pattern: blank = flying", fontsize=9)
     return fig
 
 
-def plot_contact_pattern(orbit, path, trigger_tol=1e-9, dpi=120):
+def plot_contact_pattern(orbit, path, trigger_tol=1e-9, zoom=True, dpi=120):
     """Write :func:`contact_pattern_figure` to ``path`` (PNG or anything ``Figure.savefig`` accepts).
 
     Parameters
@@ -505,6 +525,7 @@ def plot_contact_pattern(orbit, path, trigger_tol=1e-9, dpi=120):
     orbit : ShootingOrbit
     path : str or binary file-like
     trigger_tol : float
+    zoom : bool
     dpi : int
 
     Returns
@@ -531,7 +552,7 @@ def plot_contact_pattern(orbit, path, trigger_tol=1e-9, dpi=120):
     ('pattern.png', ('pattern.png',), {'dpi': 120}, True)
     """
     plt = _pyplot()
-    fig = contact_pattern_figure(orbit, trigger_tol)
+    fig = contact_pattern_figure(orbit, trigger_tol, zoom)
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path

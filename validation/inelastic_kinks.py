@@ -293,6 +293,112 @@ def oscillon_rates(Gamma=4.1, R0s=(10.0, 20.0), r_max=60.0, dr=1.0, periods=30, 
     return rows
 
 
+def _flat_rows(rows):
+    out = []
+    for r in rows:
+        p = r.get("pattern", {})
+        w = r.get("width", [float("nan")] * 2)
+        out.append(dict(Gamma=r["Gamma"], dx=r["dx"], n_nodes=r["n_nodes"], converged=r["converged"],
+                        residual=r["residual"], nit=r["nit"], seconds=r["seconds"], width_left=f"{w[0]:.4f}",
+                        width_right=f"{w[1]:.4f}", contacts=", ".join(f"{k}: {v}" for k, v in p.get("contacts", {}).items()),
+                        sticking_nodes=r.get("sticking_nodes"),
+                        patterns="; ".join(f"{k} x{v}" for k, v in sorted(p.get("histogram", {}).items(),
+                                                                          key=lambda kv: -kv[1])),
+                        triggered=p.get("triggered"),
+                        abs_mu=", ".join(f"{m:.5f}" for m in r.get("abs_mu", [])), defect10=r.get("defect10")))
+    return out
+
+
+def figures(Gamma=4.1, dx=0.5, directory=None, n_times=256):
+    """Write ``inelastic_kink_period.png`` and ``inelastic_kink_contacts.png`` from a saved orbit.
+
+    Returns the paths written (empty if the orbit is not saved or did not converge).
+    """
+    from tps_solver.plotting import plot_contact_pattern, plot_orbit_period
+
+    orb = load_orbit(Gamma, dx)
+    if orb is None or not orb.converged:
+        return []
+    directory = directory or os.path.join(os.path.dirname(__file__), "figures")
+    paths = [os.path.join(directory, "inelastic_kink_period.png"),
+             os.path.join(directory, "inelastic_kink_contacts.png")]
+    plot_orbit_period(orb, paths[0], n_times=n_times, n_snapshots=6)
+    plot_contact_pattern(orb, paths[1])
+    return paths
+
+
+def oscillon_figure(directory=None):
+    """Write ``inelastic_kink_oscillon_radius.png``: R(k) and R(k)**2 of the saved oscillon runs."""
+    import matplotlib.pyplot as plt
+
+    directory = directory or os.path.join(os.path.dirname(__file__), "figures")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), layout="constrained")
+    for G in GAMMAS:
+        for dr, ls in ((1.0, "-"), (0.5, "--")):
+            p = os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}.json")
+            if not os.path.exists(p):
+                continue
+            with open(p) as f:
+                for r in json.load(f):
+                    R = np.asarray(r["radii"])
+                    k = np.arange(R.size)
+                    lab = f"$\\Gamma$ = {G:g}, dr = {dr:g}, $R_0$ = {r['R0']:g}"
+                    axes[0].plot(k, R, ls, marker=".", label=lab)
+                    axes[1].plot(k, R ** 2, ls, marker=".", label=lab)
+    axes[0].set_ylabel(r"core radius $R$ (viscous lengths; $\theta = 0.5$)")
+    axes[1].set_ylabel(r"$R^2$ (viscous lengths squared)")
+    for ax in axes:
+        ax.set_xlabel(r"periods $k$ (period $T = 4\pi/\omega$)")
+        ax.legend(fontsize=6)
+    fig.suptitle("e = 0 oscillon cores (half a period shifted), time stepped, exact FDA, axisymmetric "
+                 "uniform lattice, $r_{max}$ = 60: the core collapses with $R\\,dR/dk \\approx$ const", fontsize=9)
+    path = os.path.join(directory, "inelastic_kink_oscillon_radius.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def main(parts=("table", "convergence", "oscillon")):
+    """Print the measured tables (markdown) from the cases saved under ``SCRATCH``."""
+    rows = gamma_table()
+    if "table" in parts:
+        print("\n## e = 0 kinks by shooting (M = 2, planar Neumann lattice of length 40)\n")
+        print(table(_flat_rows(rows), ["Gamma", "dx", "n_nodes", "converged", "residual", "nit", "seconds",
+                                       "width_left", "width_right", "contacts", "sticking_nodes", "triggered",
+                                       "abs_mu", "defect10"]))
+        print("\nContact kinds per node and period (L lift-off, L* triggered lift-off, T touch-and-go, "
+              "S landing to stick), number of nodes:\n")
+        print(table(_flat_rows(rows), ["Gamma", "dx", "patterns"]))
+    if "convergence" in parts:
+        print("\n## Front width vs dx\n")
+        crow = []
+        for G in sorted({r["Gamma"] for r in rows}):
+            for which, name in ((0, "left max"), (1, "right max")):
+                c = convergence([r for r in rows if r["Gamma"] == G], which)
+                crow.append(dict(Gamma=G, at=name, dx=c["dx"], width=", ".join(f"{v:.4f}" for v in c["width"]),
+                                 diffs=", ".join(f"{v:.2e}" for v in c["diffs"]),
+                                 orders=", ".join(f"{v:.2f}" for v in c["orders"]),
+                                 richardson=f"{c['richardson']:.4f}",
+                                 verdict=c["verdict"]))
+        print(table(crow, ["Gamma", "at", "dx", "width", "diffs", "orders", "richardson", "verdict"]))
+    if "oscillon" in parts:
+        orow = []
+        for G in GAMMAS:
+            for dr in (1.0, 0.5):
+                p = os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}.json")
+                if os.path.exists(p):
+                    with open(p) as f:
+                        for r in json.load(f):
+                            R = r["radii"]
+                            r["R_every5"] = [round(v, 2) for v in R[::5]]
+                            orow.append(r)
+        if orow:
+            print("\n## e = 0 oscillon cores, time stepped (axisymmetric uniform lattice, r_max = 60)\n")
+            print(table(orow, ["Gamma", "dr", "R0", "method", "periods", "seconds", "rate", "rate_last10",
+                               "R_dRdk", "n_fit", "R_end", "R_every5"]))
+    return rows
+
+
 if __name__ == "__main__":
     if sys.argv[1:2] == ["oscillon"]:
         G, dr = float(sys.argv[2]), float(sys.argv[3])
@@ -303,8 +409,11 @@ if __name__ == "__main__":
             json.dump(rows, f, indent=1)
         for r in rows:
             print(r["R0"], r["seconds"], r["rate"], r["rate_last10"], r["R_dRdk"], np.round(r["radii"], 2).tolist())
-
-    if sys.argv[1:2] == ["run"]:
+    elif sys.argv[1:2] == ["run"]:
         row = run(float(sys.argv[2]), float(sys.argv[3]))
         print({k: v for k, v in row.items() if k != "pattern"})
         print(row.get("pattern", {}).get("histogram"))
+    elif sys.argv[1:2] == ["figures"]:
+        print(figures(), oscillon_figure())
+    else:
+        main(tuple(sys.argv[1:]) or ("table", "convergence", "oscillon"))
