@@ -795,6 +795,26 @@ class SoftIntegrator(Integrator):
         coef = self._vinv @ vals                          # ascending monomial coefficients, (s+1, k)
         x = np.clip(guess, lo, hi)
         deg = coef.shape[0] - 1
+        if x.size <= 16:                                  # few roots: Newton on floats
+            out = x.copy()
+            for i, (xi, a, b) in enumerate(zip(x.tolist(), lo.tolist(), hi.tolist())):
+                ci = coef[::-1, i].tolist()                   # descending
+                for _ in range(5):
+                    p, dp = ci[0], 0.0
+                    for cm in ci[1:]:
+                        dp = dp * xi + p
+                        p = p * xi + cm
+                    if dp == 0.0 or not math.isfinite(p / dp):
+                        break
+                    xn = xi - p / dp
+                    if not (a <= xn <= b):
+                        break
+                    done = abs(xn - xi) <= 1e-15
+                    xi = xn
+                    if done:
+                        break
+                out[i] = xi
+            return out
         dcoef = coef[1:] * np.arange(1, deg + 1)[:, None]
         for _ in range(5):
             p = coef[deg].copy()
