@@ -306,7 +306,7 @@ class SoftIntegrator(Integrator):
         self._order = 2 * s - 1
         self._h = None
         self._event_times = collections.deque()
-        self._event_counts = np.zeros(self.n, np.int64)
+        self._event_counts = [0] * self.n
         self._forecast = None
         self._cfg_cache = {}
         self._lam2 = self._lam * self._lam
@@ -524,14 +524,21 @@ class SoftIntegrator(Integrator):
 
     def _consistency(self, t, w, z, mode, events):
         """Switch nodes whose configuration contradicts the state at t (e.g. an initial state)."""
-        free, cont = mode == _FREE, mode == _CONTACT
-        # nodes switched within the simultaneity window sit up to time_tol * |w| on the wrong side
-        zt = 2.0 * self.time_tol * np.abs(w)
-        enter = np.flatnonzero(free & (z < 0.0) & ((w < 0.0) | (z < -zt)))
-        leave = np.flatnonzero(cont & (z > 0.0) & ((w > 0.0) | (z > zt)))
         held = mode == _HELD
-        if enter.size or leave.size:
-            self._switch(t, w, z, mode, enter, leave, np.empty(0, int), events)
+        # nodes switched within the simultaneity window sit up to time_tol * |w| on the wrong side
+        cand = np.flatnonzero(z * self._sign[mode] > 0.0)       # free below the plate, contact above
+        if cand.size:
+            tt = 2.0 * self.time_tol
+            enter, leave = [], []
+            for i, wi, zi, mi in zip(cand.tolist(), w[cand].tolist(), z[cand].tolist(), mode[cand].tolist()):
+                zt = tt * abs(wi)
+                if mi == _FREE and (wi < 0.0 or zi < -zt):
+                    enter.append(i)
+                elif mi == _CONTACT and (wi > 0.0 or zi > zt):
+                    leave.append(i)
+            if enter or leave:
+                self._switch(t, w, z, mode, np.array(enter, int), np.array(leave, int), np.empty(0, int),
+                             events)
         if held.any():
             cfg = self._config(mode)
             v = self._violation(t, w, z, mode, cfg, with_rate=False)
@@ -576,7 +583,7 @@ class SoftIntegrator(Integrator):
             counts[j] += 1
         while dq and dq[0][0] < t - 2.0 * math.pi:
             counts[dq.popleft()[1]] -= 1
-        worst = int(np.argmax(counts))
+        worst = max(nodes, key=counts.__getitem__) if nodes else 0    # only these counts grew
         if counts[worst] > self.max_events:
             raise RuntimeError(
                 f"soft integrator: node {worst} had more than max_events = {self.max_events} events "
@@ -841,11 +848,16 @@ class SoftIntegrator(Integrator):
         te (the earliest such, ``dt`` before te), else -1.
         """
         v, dv = self._violation(te, we, ze, mode, cfg)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dt = np.where(dv > 0.0, v / dv, np.where(v > 0.0, np.inf, -np.inf))   # te - t_cross
-        dt[j] = 0.0
-        early = (dt > self.time_tol) & (v > 0.0)
+        thr = self.time_tol * dv                   # |te - t_cross| <= time_tol  <=>  |v| <= thr (dv > 0)
+        early = v > np.maximum(thr, 0.0)           # crossed more than time_tol before te
+        early[j] = False
         if early.any():
-            k = int(np.argmax(np.where(early, dt, -np.inf)))
-            return None, k, (float(dt[k]) if np.isfinite(dt[k]) else 0.5 * 0.0)
-        return np.flatnonzero(np.abs(dt) <= self.time_tol), -1, 0.0
+            idx = np.flatnonzero(early)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                dts = np.where(dv[idx] > 0.0, v[idx] / dv[idx], np.inf)             # te - t_cross
+            i = int(np.argmax(dts))
+            return None, int(idx[i]), (float(dts[i]) if np.isfinite(dts[i]) else 0.0)
+        near = np.abs(v) <= thr
+        near &= dv > 0.0
+        near[j] = True
+        return np.flatnonzero(near), -1, 0.0
