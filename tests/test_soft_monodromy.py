@@ -146,3 +146,35 @@ def test_bad_input_raises_value_error(flat):
         J.jv(np.ones(3))
     with pytest.raises(ValueError, match="lattice"):
         SoftMonodromy("lattice", G, E, ELL, s, s + orb.period, z, ev)
+
+
+# ------------------------------------------------------------ routing (slow: time-stepped periods)
+
+@pytest.mark.slow
+def test_check_stability_soft_reports_the_exact_multipliers():
+    fl = tps.FlatLayer(G, M, e=E)
+    chk = tps.check_stability(fl, periods=3, n_nodes=3, length=2.0, method="soft", cutoff=ELL, jacobian=True)
+    orb = SoftFlatOrbit(G, M, E, ELL)
+    mono = orb.monodromy(lattice_eigenvalues(chk.lattice), t_section=chk.section_time)
+    assert _match(chk.uniform_multipliers, np.linalg.eigvals(mono[0])) < 1e-10     # FD: 5e-9
+    assert chk.multipliers_kind == "full period map" and chk.differentiable
+    assert _match(chk.multipliers, np.concatenate([np.linalg.eigvals(m) for m in mono])) < 1e-10   # FD: 4e-7
+    assert "exact soft monodromy" in chk.message
+
+
+@pytest.mark.slow
+def test_find_periodic_orbit_soft_uses_the_exact_product():
+    orb = SoftFlatOrbit(G, M, E, ELL)
+    lat = tps.Lattice.planar(n_nodes=3, length=1.0)
+    s = orb.t_exit + 0.5 * orb.flight
+    w, z = orb.state(s)
+    guess = (np.full(3, w) + 1e-4 * np.array([1.0, -1.0, 0.5]), np.full(3, z))
+    res = tps.find_periodic_orbit(lat, G, M, E, cutoff=ELL, guess=guess, t_start=s, section="fixed", tol=1e-10)
+    assert res.converged and res.multipliers_kind == "all (exact)"
+    want = np.concatenate([np.linalg.eigvals(m) for m in orb.monodromy(lattice_eigenvalues(lat), t_section=s)])
+    assert _match(res.multipliers, want) < 1e-8                     # measured 1.3e-10 (FD: 4.3e-5)
+    assert res.nit <= 3 and res.n_period_maps <= 8                  # exact Newton: 2 steps, 6 maps
+    lead = tps.find_periodic_orbit(lat, G, M, E, cutoff=ELL, guess=res, section="fixed", tol=1e-10,
+                                   dense_max=0, n_multipliers=3)
+    assert lead.multipliers_kind == "leading (exact)" and lead.multipliers.size == 3
+    np.testing.assert_allclose(lead.multipliers, res.multipliers[:3], rtol=0, atol=1e-9)
