@@ -374,8 +374,8 @@ class SoftIntegrator(Integrator):
         him, hip = np.maximum(hidx - 1, 0), np.minimum(hidx + 1, n - 1)
         return dict(rows_ok=rows_ok, Ld=Ld, Ll=Ll, Lu=Lu, QLf=QL, QUf=QU, QL=QL[:-1], QU=QU[:-1],
                     hidx=hidx, him=him, hip=hip, hcols=np.concatenate((hidx, him, hip)),
-                    hLd=self._Ld[hidx], hLl=np.where(hidx > 0, self._Ll[him.clip(max=n - 2)], 0.0),
-                    hLu=np.where(hidx < n - 1, self._Lu[hidx.clip(max=n - 2)], 0.0))
+                    hLd=self._Ld[hidx], hLl=np.concatenate(([0.0], self._Ll))[hidx],
+                    hLu=np.concatenate((self._Lu, [0.0]))[hidx])
 
     def _rhs(self, t, w, z, cfg):
         dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
