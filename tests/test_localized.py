@@ -74,14 +74,20 @@ def test_bad_input_names_the_parameter(call, name):
 
 
 @pytest.mark.slow
-def test_e0_kink_dx2_matches_the_shooting_study():
-    """Gamma = 4.1, dx = 2: the numbers of validation/sections/shooting.md (front width 9.01)."""
+@pytest.mark.parametrize("t_start, width, mu", [
+    (np.arcsin(1 / 4.1) + np.pi, 9.0136, 0.98284),     # the start of validation.shooting.e0_kinks
+    (None, 9.0291, 1.00502),                           # the default start: the other pinned position
+])
+def test_e0_kink_dx2_two_pinned_fronts(t_start, width, mu):
+    """Gamma = 4.1, dx = 2: the stable kink of validation/sections/shooting.md (front width 9.01,
+    |mu| = 0.983) and, from the default start, the weakly unstable one at the other lattice position."""
     lat = tps.Lattice.planar(n_nodes=21, length=40.0)
-    orb = lattice_kink(lat, Gamma=4.1, e=0.0, periods=10, max_iter=80, n_multipliers=4, dense_max=100)
+    orb = lattice_kink(lat, Gamma=4.1, e=0.0, periods=10, t_start=t_start, max_iter=80, n_multipliers=4,
+                       dense_max=100)
     assert orb.converged and orb.localized
     assert orb.contacts_per_node.tolist() == [2] * 21
-    assert abs(front_width(orb)[0] - 9.01) < 0.01
-    assert abs(abs(orb.multipliers[0]) - 0.9828) < 2e-3
+    assert abs(front_width(orb)[0] - width) < 2e-4
+    assert abs(abs(orb.multipliers[0]) - mu) < 2e-4
 
 
 def test_cli_lattice_kink(capsys):

@@ -190,6 +190,14 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
         A lattice that is not planar, odd ``M``, parameters out of range, a far-field
         pattern that does not exist at ``(Gamma, e, M)`` (the message lists those that do).
 
+    Notes
+    -----
+    On a lattice the front is pinned: there are kinks centred at different positions
+    relative to the nodes, typically alternating stable and unstable (at Gamma = 4.1,
+    e = 0, dx = 2: front widths 9.014 with :math:`|\mu_1| = 0.983` and 9.029 with
+    :math:`|\mu_1| = 1.005`).  Which one Newton reaches depends on the start; ``t_start``
+    (with ``width``) selects it, and the multipliers say which kind was found.
+
     Examples
     --------
     The completely inelastic kink on a coarse lattice (dx = 8): two contacts per node and
