@@ -62,13 +62,21 @@ def test_flat_lattice_multipliers_match_the_closed_form_per_mode_monodromy(flat)
     np.testing.assert_allclose(J.uniform_block(), mono[0], rtol=0, atol=1e-10)
 
 
+def test_taylor_interval_flow_matches_dense_expm(flat):
+    """The banded Taylor series (used above EXPM_MAX unknowns) against dense expm per interval."""
+    J = flat[3]
+    np.testing.assert_allclose(J._propagate(np.eye(8), "taylor"), J.matrix(), rtol=0, atol=1e-11)
+
+
 @pytest.mark.slow
 def test_matrix_free_route_matches_the_dense_product(flat):
     orb, s, lat, J, ev = flat
     Jf = SoftMonodromy(lat, G, E, ELL, J.t_start, J.t_end, np.full(4, orb.state(s)[1]), ev, dense_max=0)
     v = np.linspace(-1.0, 1.0, 8)
     np.testing.assert_allclose(Jf.jv(v), J.matrix() @ v, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(J._propagate(np.eye(8), "expm_multiply"), J.matrix(), rtol=0, atol=1e-11)
     mu = Jf.multipliers(k=3)
+    assert Jf.arpack_converged is True
     np.testing.assert_allclose(np.abs(mu), np.abs(J.multipliers()[:3]), rtol=0, atol=1e-9)
 
 

@@ -68,9 +68,16 @@ __all__ = ["SoftMonodromy", "soft_monodromy"]
 _FREE, _CONTACT, _HELD = 0, 1, 2
 
 #: Up to this many unknowns (2 n_nodes) each interval's flow is a dense ``scipy.linalg.expm``;
-#: above it the banded Taylor series of :func:`_expm_taylor` (measured on a 201-node kink
-#: period, 572 intervals: dense expm per interval 135 s for the matrix, Taylor a few s).
-EXPM_MAX = 64
+#: above it the banded Taylor series of :func:`_expm_taylor`.  Measured (one BLAS thread, loaded
+#: machine): the 12-node kink's monodromy 0.32 s by expm, 0.04 s by Taylor (they agree to
+#: 1.1e-12); one product on a 201-node kink period (572 intervals) 1.5 s by Taylor, 13.7 s by
+#: ``scipy.sparse.linalg.expm_multiply`` (agreeing to 7e-14).
+EXPM_MAX = 16
+
+#: Up to this many unknowns :meth:`SoftMonodromy.jv` builds and uses the dense matrix (the
+#: identity propagated as one block costs 2.6x one product on the 12-node kink, 2-3.5x on a
+#: 49-node kink period, 52x on a 201-node one, measured), above it each product is matrix-free.
+JV_DENSE_MAX = 200
 
 
 class SoftMonodromy:
@@ -99,9 +106,8 @@ class SoftMonodromy:
         The segment's events (fields ``t, node, kind, w_before``, time-ordered), as
         :func:`~tps_solver.simulate` returns them.
     dense_max : int
-        Up to this many unknowns (``2 n_nodes``, default 400) the dense matrix is built once
-        and used for every product and for all eigenvalues; above it the product is
-        matrix-free (and :meth:`multipliers` uses ARPACK).  Measured on a 201-node kink period
+        Up to this many unknowns (``2 n_nodes``, default 400) :meth:`multipliers` builds the
+        dense matrix and returns all eigenvalues; above it, ARPACK with the matrix-free product.  Measured on a 201-node kink period
         (572 intervals, one BLAS thread): one matrix-free product 0.5 s (the period map: 1.1 s),
         the dense matrix 26 s, ARPACK's 6 leading multipliers 28 s.
 
@@ -375,6 +381,9 @@ class SoftMonodromy:
     def jv(self, v):
         """The product ``J v`` of the monodromy with ``v = (dw, dzeta)``.
 
+        By the dense matrix when it is built (or up to :data:`JV_DENSE_MAX` unknowns, unless
+        ``dense_max`` is smaller), otherwise matrix-free, interval by interval.
+
         Parameters
         ----------
         v : array_like of float, shape (2 n,) or (2 n, k)
@@ -396,7 +405,7 @@ class SoftMonodromy:
         v = np.asarray(v, dtype=float)
         if v.shape[0] != 2 * self.n or v.ndim > 2:
             raise ValueError(f"v must have shape ({2 * self.n},) or ({2 * self.n}, k), got {v.shape}")
-        if self._use_dense:
+        if self._dense is not None or (self._use_dense and 2 * self.n <= JV_DENSE_MAX):
             return self.matrix() @ v
         return self._propagate(v.reshape(2 * self.n, -1)).reshape(v.shape)
 
@@ -514,9 +523,9 @@ def _expm_taylor(L3, mode, beta, omega0, Y, dt, theta=2.0):
     r"""``expm(A_C dt) @ Y`` for one configuration by a truncated Taylor series on substeps.
 
     ``L3 = (diag, upper, lower)`` of the tridiagonal operator; ``Y`` of shape (2 n, k).  The
-    heights are scaled by :math:`\omega_0`, which balances the contact block (:math:`-\omega_0^2`
-    becomes :math:`-\omega_0`, the identity block :math:`\omega_0`) and lowers the 1-norm from
-    about :math:`\omega_0^2` to about :math:`4/\Delta x^2 + \omega_0`; the interval is cut into
+    heights of the contact nodes are scaled by :math:`\omega_0`, which balances their block
+    (:math:`-\omega_0^2` becomes :math:`-\omega_0`, the identity :math:`\omega_0`) and lowers the
+    1-norm from about :math:`\omega_0^2` to about :math:`4/\Delta x^2 + \omega_0`; the interval is cut into
     substeps with :math:`\|A' h\|_1 = \eta \le` ``theta``, and each series is truncated after the
     first ``m`` terms with :math:`e^{\eta}\,\eta^{m+1}/(m+1)! \le 2^{-53}` (an a-priori bound of the
     relative remainder, so short intervals cost few terms).  The product is banded, so each term
@@ -528,8 +537,9 @@ def _expm_taylor(L3, mode, beta, omega0, Y, dt, theta=2.0):
     r = (mode != _HELD).astype(float)
     dww = r * Ld - 2.0 * beta * c                 # diagonal of the w-w block
     up, lo = r[:-1] * Lu, r[1:] * Ll             # rows of held nodes are dropped
-    wz = -omega0 * c                             # -omega0^2 c / omega0
-    zw = omega0 * r
+    sig = np.where(c > 0.0, omega0, 1.0)         # heights of contact nodes scaled by omega0
+    wz = -omega0 * c                             # -omega0^2 c / sig
+    zw = sig * r
     col_w = np.abs(dww) + zw
     col_w[1:] += np.abs(up)
     col_w[:-1] += np.abs(lo)
@@ -541,7 +551,7 @@ def _expm_taylor(L3, mode, beta, omega0, Y, dt, theta=2.0):
     while m < 60 and math.exp(eta) * bound > 2.0 ** -53:
         m += 1
         bound *= eta / (m + 1)
-    W, Z = Y[:n].copy(), Y[n:] * omega0
+    W, Z = Y[:n].copy(), Y[n:] * sig[:, None]
     dww, up, lo, wz, zw = dww[:, None], up[:, None], lo[:, None], wz[:, None], zw[:, None]
     for _ in range(steps):
         tw, tz = W, Z
@@ -554,7 +564,7 @@ def _expm_taylor(L3, mode, beta, omega0, Y, dt, theta=2.0):
             tw = nw * f
             W = W + tw
             Z = Z + tz
-    return np.vstack((W, Z / omega0))
+    return np.vstack((W, Z / sig[:, None]))
 
 
 def soft_monodromy(lattice, Gamma, e, cutoff, w0, zeta0, t_start, period, *, dense_max=400, **options):
