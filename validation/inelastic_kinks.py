@@ -39,6 +39,8 @@ from validation.shooting import e0_flat_state, e0_kinks, front_width, table, ver
 SCRATCH = os.environ.get("INELASTIC_SCRATCH", "/work/scratch/inelastic")
 GAMMAS = (3.9, 4.1, 4.4)
 DXS = (2.0, 1.0, 0.5)
+#: stuck time (units 1/omega) below which a stick is "brief" (``s`` in the pattern strings)
+BRIEF = 1e-3
 
 
 def _limits():
@@ -54,7 +56,7 @@ def _pdist(a, b, T):
     return np.abs(np.mod(np.asarray(a, float) - np.asarray(b, float) + 0.5 * T, T) - 0.5 * T)
 
 
-def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9):
+def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9, sticking_intervals=None, brief=None):
     """Per-node contact sequence of one period of a lattice orbit.
 
     Parameters
@@ -71,6 +73,12 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9):
     trigger_tol : float
         A lift-off of node j within ``trigger_tol`` (mod T) of a landing (impact or stick) of a
         neighbour is counted as triggered.
+    sticking_intervals : list of (int, float, float), optional
+        ``(node, t_stick, t_liftoff)`` of the period (``ShootingOrbit.sticking_intervals``; an
+        interval cut at the section is joined with its other piece).  With ``brief``, a stick
+        whose stuck time is below ``brief`` is written ``s``.
+    brief : float, optional
+        Stuck-time threshold (time units 1/omega) of a brief stick.
 
     Returns
     -------
@@ -79,7 +87,9 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9):
         first lift-off, ``T`` touch-and-go, ``S`` stick, ``L`` lift-off, ``L*`` triggered lift-off),
         ``histogram`` (dict sequence -> number of nodes), ``contacts`` (dict contacts per node ->
         number of nodes), ``touch_and_go``, ``sticks``, ``liftoffs``, ``triggered`` (int totals),
-        ``triggered_nodes`` (list of int), ``stuck_at_section`` (int).
+        ``triggered_nodes`` (list of int), ``stuck_at_section`` (int); with
+        ``sticking_intervals``: ``stuck_times`` (per node, list of float, in time order of the
+        sticks), ``brief_sticks`` (int, stuck time < ``brief``), ``min_stuck_time`` (float).
 
     Examples
     --------
@@ -89,12 +99,25 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9):
     >>> p = contact_pattern(ev, 2, 12.0)
     >>> p["sequences"], p["triggered"], p["contacts"]
     (['L* T S', 'L S'], 1, {1: 1, 2: 1})
+    >>> p = contact_pattern(ev, 2, 12.0, sticking_intervals=[(1, 2.0, 5.0), (0, 4.0, 4.5)], brief=1.0)
+    >>> p["sequences"], p["stuck_times"], p["brief_sticks"]
+    (['L* T s', 'L S'], [[0.5], [3.0]], 1)
     """
     T = float(period)
     t = np.asarray(events.t, dtype=float)
     node = np.asarray(events.node, dtype=int)
     kind = np.asarray(events.kind).astype(str)
     landing = (kind == "impact") | (kind == "stick")
+    stuck_time = {}                       # (node, t_stick) -> stuck time
+    if sticking_intervals is not None:
+        ivs = sorted(sticking_intervals, key=lambda r: r[1])
+        for j, b, e in ivs:
+            stuck_time[(int(j), float(b))] = float(e - b)
+        for j in (np.flatnonzero(stuck0) if stuck0 is not None else []):
+            mine = [(b, e) for jj, b, e in ivs if jj == j]
+            if len(mine) >= 2:            # an interval across the section: join its two pieces
+                (b0, e0), (bl, el) = mine[0], mine[-1]
+                stuck_time[(int(j), float(bl))] = float((e0 - b0) + (el - bl))
     seqs, n_trig, trig_nodes = [], 0, []
     for j in range(n_nodes):
         idx = np.flatnonzero(node == j)
@@ -104,7 +127,8 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9):
             if kind[i] == "impact":
                 toks.append("T")
             elif kind[i] == "stick":
-                toks.append("S")
+                d = stuck_time.get((j, float(t[i])))
+                toks.append("s" if (brief is not None and d is not None and d < brief) else "S")
             else:
                 nb = landing & ((node == j - 1) | (node == j + 1))
                 trig = bool(nb.any() and np.min(_pdist(t[nb], t[i], T)) < trigger_tol)
@@ -116,8 +140,18 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9):
         if lifts:
             toks = toks[lifts[0]:] + toks[:lifts[0]]
         seqs.append(" ".join(toks))
-    ncont = [s.split().count("T") + s.split().count("S") for s in seqs]
-    return dict(sequences=seqs, histogram=dict(Counter(seqs)),
+    ncont = [len([k for k in s.split() if k in ("T", "S", "s")]) for s in seqs]
+    extra = {}
+    if sticking_intervals is not None:
+        per = [[] for _ in range(n_nodes)]
+        for i in np.flatnonzero(kind == "stick"):
+            d = stuck_time.get((int(node[i]), float(t[i])))
+            if d is not None:
+                per[int(node[i])].append(d)
+        allt = [d for p in per for d in p]
+        extra = dict(stuck_times=per, brief_sticks=int(sum(d < brief for d in allt)) if brief else 0,
+                     min_stuck_time=float(min(allt)) if allt else float("nan"))
+    return dict(**extra, sequences=seqs, histogram=dict(Counter(seqs)),
                 contacts={int(k): int(v) for k, v in sorted(Counter(ncont).items())},
                 touch_and_go=int(np.sum(kind == "impact")), sticks=int(np.sum(kind == "stick")),
                 liftoffs=int(np.sum(kind == "liftoff")), triggered=n_trig,
@@ -141,7 +175,8 @@ def kink_row(Gamma, dx, length=40.0, M=2, periods=10, max_iter=80, callback=None
     row["mu"] = [[m.real, m.imag] for m in r["mu"]]
     row["abs_mu"] = [abs(m) for m in r["mu"][:3]]
     if orb.events is not None:
-        row["pattern"] = contact_pattern(orb.events, orb.lattice.n_nodes, orb.period, orb.stuck0)
+        row["pattern"] = contact_pattern(orb.events, orb.lattice.n_nodes, orb.period, orb.stuck0,
+                                         sticking_intervals=orb.sticking_intervals, brief=BRIEF)
     if "width" in row:
         row["width"] = list(row["width"])
     return row
@@ -178,14 +213,20 @@ def load_orbit(Gamma, dx):
 
 
 def gamma_table(gammas=GAMMAS, dxs=DXS + (0.25,)):
-    """Rows of the saved cases (the ones that exist), in (Gamma, dx) order."""
+    """Rows of the saved cases (the ones that exist), in (Gamma, dx) order; the contact pattern
+    is re-derived from the pickled orbit (:func:`contact_pattern` with ``brief = BRIEF``)."""
     rows = []
     for G in gammas:
         for dx in dxs:
             p = _path(G, dx, "json")
             if os.path.exists(p):
                 with open(p) as f:
-                    rows.append(json.load(f))
+                    row = json.load(f)
+                orb = load_orbit(G, dx)           # the pattern is re-derived from the saved orbit
+                if orb is not None and orb.events is not None:
+                    row["pattern"] = contact_pattern(orb.events, orb.lattice.n_nodes, orb.period, orb.stuck0,
+                                                     sticking_intervals=orb.sticking_intervals, brief=BRIEF)
+                rows.append(row)
     return rows
 
 
@@ -304,7 +345,8 @@ def _flat_rows(rows):
                         sticking_nodes=r.get("sticking_nodes"),
                         patterns="; ".join(f"{k} x{v}" for k, v in sorted(p.get("histogram", {}).items(),
                                                                           key=lambda kv: -kv[1])),
-                        triggered=p.get("triggered"),
+                        triggered=p.get("triggered"), brief=p.get("brief_sticks"),
+                        min_stuck=p.get("min_stuck_time"),
                         abs_mu=", ".join(f"{m:.5f}" for m in r.get("abs_mu", [])), defect10=r.get("defect10")))
     return out
 
@@ -364,10 +406,10 @@ def main(parts=("table", "convergence", "oscillon")):
     if "table" in parts:
         print("\n## e = 0 kinks by shooting (M = 2, planar Neumann lattice of length 40)\n")
         print(table(_flat_rows(rows), ["Gamma", "dx", "n_nodes", "converged", "residual", "nit", "seconds",
-                                       "width_left", "width_right", "contacts", "sticking_nodes", "triggered",
-                                       "abs_mu", "defect10"]))
+                                       "width_left", "width_right", "contacts", "sticking_nodes", "triggered", "brief",
+                                       "min_stuck", "abs_mu", "defect10"]))
         print("\nContact kinds per node and period (L lift-off, L* triggered lift-off, T touch-and-go, "
-              "S landing to stick), number of nodes:\n")
+              "S landing to stick, s a brief stick: stuck for less than BRIEF = 1e-3), number of nodes:\n")
         print(table(_flat_rows(rows), ["Gamma", "dx", "patterns"]))
     if "convergence" in parts:
         print("\n## Front width vs dx\n")
