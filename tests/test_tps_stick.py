@@ -179,3 +179,66 @@ def test_lattice_kink_gamma_4p4_against_fda():
     assert sol.converged and sol.checks.all_pass
     chk = ts.check_with_fda(sol, periods=2)
     assert chk.contact_error < 1e-8 and chk.liftoff_error < 1e-8
+
+
+def _small_orbit():
+    lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+    return lat, tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, multipliers=False)
+
+
+def test_pattern_from_shooting_orbit_is_the_closed_form():
+    """Pattern and TPS from a shooting orbit of the uniform lattice: the closed-form flat orbit."""
+    lat, orb = _small_orbit()
+    assert orb.converged
+    flat = ts.flat_stick_orbit(4.1, 2)
+    p = ts.pattern_from_orbit(orb, lat)
+    for j in range(3):
+        assert list(p.kind[p.node == j]) == ["bounce", "stick"]
+        assert np.max(np.abs(p.t[p.node == j] - flat.t)) < 1e-9
+    sol = ts.solve_stick_lattice(lat, 4.1, pattern=orb)
+    assert sol.converged and sol.pattern_source.startswith("shooting orbit")
+    assert np.max(np.abs(sol.contact_times - flat.t[None, :])) < 1e-12
+    assert np.nanmax(np.abs(sol.liftoff_times - flat.tau[None, :])) < 1e-12
+
+
+def test_shooting_orbit_input_is_validated():
+    lat, orb = _small_orbit()
+    other = tps.Lattice.planar(n_nodes=4, length=2.0)
+    with pytest.raises(ValueError, match="pattern.*this lattice"):
+        ts.solve_stick_lattice(other, 4.1, pattern=orb)
+    with pytest.raises(ValueError, match="pattern.*Gamma = 4.2"):
+        ts.solve_stick_lattice(lat, 4.2, pattern=orb)
+    with pytest.raises(ValueError, match="lattice must be the orbit's lattice"):
+        ts.pattern_from_orbit(orb, other)
+    with pytest.raises(ValueError, match="orbit must be a ShootingOrbit"):
+        ts.pattern_from_orbit(ts.flat_stick_orbit(4.1))
+    with pytest.raises(ValueError, match="StickPattern or a ShootingOrbit"):
+        ts.solve_stick_lattice(lat, 4.1, pattern=(orb.w0, orb.zeta0))
+
+
+def _e0_kink_orbit(Gamma, dx):
+    from validation.shooting import e0_kink_guess
+
+    lat = tps.Lattice.planar(n_nodes=int(round(40.0 / dx)) + 1, length=40.0)
+    run = e0_kink_guess(lat, Gamma, 2, 10)
+    orb = tps.find_periodic_orbit(lat, Gamma=Gamma, M=2, e=0.0, guess=run, max_iter=80, multipliers=False)
+    assert orb.converged
+    return lat, orb
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("Gamma, dx", [(3.9, 2.0), (4.1, 1.0)])
+def test_lattice_kink_from_shooting_against_fda(Gamma, dx):
+    """Pattern from the shooting orbit: the stick TPS converges (Gamma = 3.9 stalled with the FDA
+    pattern, dx = 1 too) and the FDA started on it keeps its contact and lift-off times to 1e-8."""
+    lat, orb = _e0_kink_orbit(Gamma, dx)
+    sol = ts.solve_stick_lattice(lat, Gamma, pattern=orb, tol=1e-10)
+    assert sol.converged and sol.checks.all_pass and sol.K == 2
+    chk = ts.check_with_fda(sol, periods=2)
+    assert np.all(chk.events_per_period == 2)
+    assert chk.contact_error < 1e-8 and chk.liftoff_error < 1e-8
+    # and the shooting orbit's own contacts (an independent Newton solve of the period map)
+    T = sol.period
+    for j in range(lat.n_nodes):
+        d = np.mod(orb.contact_times[j][:, None] - sol.contact_times[j][None, :] + T / 2, T) - T / 2
+        assert np.max(np.min(np.abs(d), axis=1)) < 1e-8

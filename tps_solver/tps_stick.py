@@ -92,9 +92,10 @@ from scipy.optimize import brentq
 
 from ._result import Bunch
 from ._checks import check_int, check_positive, check_real, check_restitution
+from .shooting import ShootingOrbit
 
 __all__ = ["StickSolution", "StickPattern", "flat_stick_orbit", "solve_stick_flat", "check_with_fda",
-           "solve_stick_lattice", "pattern_from_fda", "kink_state"]
+           "solve_stick_lattice", "pattern_from_fda", "pattern_from_orbit", "kink_state"]
 
 _KINDS = ("bounce", "stick")
 _ZERO_MODE = 1e-10          # |lambda T| below this: the zero mode's closed form
@@ -282,6 +283,16 @@ class StickPattern(Bunch):
         Period shift m with ``tau = t[trigger] + m T``.
     n_nodes : int
     period : float
+
+    Examples
+    --------
+    The flat e = 0 orbit on one node: a touch-and-go, then a stick with a smooth lift-off.
+
+    >>> p = solve_stick_flat(4.1).pattern
+    >>> [str(k) for k in p.kind], p.trigger.tolist()
+    (['bounce', 'stick'], [-1, -1])
+    >>> bool(np.isnan(p.tau[0]) and p.tau[1] > p.t[1])
+    True
     """
 
 
@@ -354,6 +365,22 @@ def kink_state(lattice, Gamma, M=2, t=None):
     -------
     t : float
     w0, zeta0 : ndarray of float, shape (n_nodes,)
+
+    Raises
+    ------
+    ValueError
+        If ``M`` is odd.
+
+    Examples
+    --------
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=5, length=8.0)
+    >>> t, w0, zeta0 = kink_state(lat, 4.1)
+    >>> left = lat.nodes < 0                       # two flat halves, half a period apart
+    >>> bool(np.all(w0[left] == w0[0]) and np.all(w0[~left] == w0[-1]) and w0[0] != w0[-1])
+    True
+    >>> w0.shape, bool(np.all(zeta0 >= 0))
+    ((5,), True)
     """
     orb = flat_stick_orbit(Gamma, M)
     T = orb.period
@@ -385,6 +412,25 @@ def pattern_from_fda(run, lattice, period, t_window=None, tol=1e-9):
     Returns
     -------
     StickPattern
+
+    Raises
+    ------
+    ValueError
+        If the run ends before a stick of the window lifts off, or the pattern read is
+        not a valid one (a node without contacts: run longer or move ``t_window``).
+
+    Examples
+    --------
+    A uniform 3-node lattice released at the flat lift-off settles at once on the flat orbit:
+
+    >>> import tps_solver as tps
+    >>> orb = flat_stick_orbit(4.1)
+    >>> lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+    >>> run = tps.simulate(lat, 4.1, 0.0, np.zeros(3), np.zeros(3), t_start=orb.t_liftoff + 1e-9,
+    ...                    t_end=orb.t_liftoff + 3 * orb.period)
+    >>> p = pattern_from_fda(run, lat, orb.period)
+    >>> [str(k) for k in p.kind[p.node == 1]], bool(np.max(np.abs(p.t[p.node == 1] - orb.t)) < 1e-9)
+    (['bounce', 'stick'], True)
     """
     ev = run.events
     T = float(period)
@@ -428,6 +474,66 @@ def pattern_from_fda(run, lattice, period, t_window=None, tol=1e-9):
         if d[k] < tol:
             trigger[c], shift[c] = cand[k], int(m[k])
     return _make_pattern(node, kind, t, np.array(J), tau, trigger, shift, n, T)
+
+
+def _same_lattice(a, b):
+    return (a is b) or (a.n_nodes == b.n_nodes and a.geometry == b.geometry and a.boundary == b.boundary
+                        and np.allclose(a.nodes, b.nodes, rtol=1e-12, atol=1e-12))
+
+
+def pattern_from_orbit(orbit, lattice=None, tol=1e-9):
+    r"""Read the contact pattern of a converged periodic orbit found by shooting.
+
+    The orbit (:class:`~tps_solver.shooting.ShootingOrbit`, point impacts) is integrated
+    by the exact FDA integrator for 2.5 periods from its section state (its stuck nodes
+    held), and :func:`pattern_from_fda` reads the contacts of the window of length T
+    that starts in the largest event-free gap after half a period.  On a converged
+    orbit (residual ~1e-12) the contact times are those of the orbit to that accuracy,
+    so the pattern is the orbit's own (an unsettled time-stepped run may still carry
+    transient touch-and-go landings).
+
+    Parameters
+    ----------
+    orbit : ShootingOrbit
+        Result of :func:`tps_solver.find_periodic_orbit` with ``method="exact"`` or
+        ``"point"``, preferably converged.
+    lattice : tps_solver.Lattice, optional
+        If given, it must be the orbit's lattice.
+    tol : float
+        Coincidence tolerance for triggered lift-offs (see :func:`pattern_from_fda`).
+
+    Returns
+    -------
+    StickPattern
+
+    Raises
+    ------
+    ValueError
+        If ``orbit`` is not a ShootingOrbit of point impacts, or ``lattice`` is not its lattice.
+
+    Examples
+    --------
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+    >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, multipliers=False)
+    >>> p = pattern_from_orbit(orb)
+    >>> [str(k) for k in p.kind[p.node == 0]], bool(np.all(p.trigger == -1))
+    (['bounce', 'stick'], True)
+    """
+    from .fda import simulate
+
+    if not isinstance(orbit, ShootingOrbit):
+        raise ValueError(f"orbit must be a ShootingOrbit (tps.find_periodic_orbit), got {type(orbit).__name__}")
+    if orbit.method not in ("exact", "point"):
+        raise ValueError(f"orbit.method must be 'exact' or 'point' (point impacts), got {orbit.method!r}")
+    if lattice is not None and not _same_lattice(lattice, orbit.lattice):
+        raise ValueError("lattice must be the orbit's lattice (same nodes, geometry and boundary)")
+    T = orbit.period
+    run = simulate(orbit.lattice, orbit.Gamma, orbit.e, orbit.w0, orbit.zeta0, t_start=orbit.t_start,
+                   t_end=orbit.t_start + 2.5 * T, method="exact", stuck0=orbit.stuck0)
+    if run.status != 0:
+        raise ValueError(f"the FDA run on the orbit failed: {run.message}")
+    return pattern_from_fda(run, orbit.lattice, T, tol=tol)
 
 
 # ------------------------------------------------------------------ the problem
@@ -749,9 +855,11 @@ class _StickProblem:
         return self.equations(x, v), st, v
 
     # --------------------------------------------------------------- jacobian
-    def jacobian(self, x, st, v, F):
+    def jacobian(self, x, st, v, F, times=True):
         """Dense Jacobian: exact in J and coef; in the times, the impulse kernels (which
-        kink where two impacts coincide) analytically, the smooth rest by forward differences."""
+        kink where two impacts coincide) analytically, the smooth rest by forward differences.
+        ``times=False``: only the (cheap, exact) columns of the linear unknowns J and coef
+        (the time columns are left unset)."""
         t, tau_s, J, coef = self.unpack(x)
         n = self.n_unknowns
         Jm = np.empty((F.size, n))
@@ -761,6 +869,8 @@ class _StickProblem:
             xk = x.copy()
             xk[k] += 1.0
             Jm[:, k] = self.equations(xk, v + dv_lin[:, k - self.n_theta]) - base
+        if not times:
+            return Jm
         rt = st["rt"]
         allg = np.arange(self.G)
         dR = self._impulse(self.rq_node, rt, self.rq_W, self.rq_own, np.arange(self.C), t, deriv=True)
@@ -841,6 +951,17 @@ class StickSolution(Bunch):
         ``min_zeta``, ``min_reaction`` (min of the plate reaction on stick intervals),
         ``touch_and_go_acceleration`` (min free acceleration just after bounces, e = 0),
         ``all_pass``.
+    time, solve_time : float
+        Wall-clock seconds of the whole call and of the Newton solve alone (without the
+        checks and harmonics).
+
+    Examples
+    --------
+    >>> sol = solve_stick_flat(4.1, perturbation=1e-3)
+    >>> sol.converged, sol.K, [str(k) for k in sol.contact_kinds[0]]
+    (True, 2, ['bounce', 'stick'])
+    >>> bool(abs(sol.velocity([sol.liftoff_times[0, 1] - 0.1])[0, 0]) < 1e-12)   # stuck: w = 0
+    True
     """
 
     def velocity(self, t):
@@ -889,18 +1010,19 @@ def _newton(problem, x, tol, max_iter):
     lu, fresh = None, False
     # the residual is affine in the impulses and reaction coefficients: start with their
     # least-squares values for the initial times (the initial reaction is unknown)
+    # (only the cheap linear columns are needed for that; the time columns, the expensive part
+    # of the Jacobian, are computed only if the times must move)
     if problem.n_unknowns > problem.n_theta:
-        Jm = problem.jacobian(x, st, v, F)
+        Jm = problem.jacobian(x, st, v, F, times=False)
         step = np.linalg.lstsq(Jm[:, problem.n_theta:], -F, rcond=None)[0]
         x_lin = x.copy()
         x_lin[problem.n_theta:] += step
         F_lin, st_lin, v_lin = problem.residual(x_lin)
         if np.max(np.abs(F_lin)) < np.max(np.abs(F)):
             x, F, st, v = x_lin, F_lin, st_lin, v_lin
-        lu = _factor(Jm)
     history = [float(np.max(np.abs(F)))]
     status, message, nit = 1, f"iteration limit ({max_iter}) reached", 0
-    n_jac = 1 if lu is not None else 0
+    n_jac = 0
     nit = 0
     while nit < max_iter:
         if history[-1] <= tol:
@@ -1035,7 +1157,8 @@ def _checks(sol, problem, x):
         min_reac = min(min_reac, float(np.min(rho - (np.sin(ts) - 1 / G))))
     # heights between contacts
     tt = np.linspace(0.0, T, 1024, endpoint=False)
-    min_zeta = float(np.min(sol.height(tt)))
+    zeta = sol.height(tt)
+    min_zeta = float(np.min(zeta))
     # free acceleration just after a touch-and-go (e = 0): g + (A w)_j at t+
     acc = math.inf
     bounce = np.nonzero(problem.p.kind == "bounce")[0]
@@ -1045,7 +1168,7 @@ def _checks(sol, problem, x):
             w_all = sol.velocity([tp])[0]
             w_all[problem.p.node[c]] = 0.0
             acc = min(acc, float(math.sin(tp) - 1 / G + problem.m.A[problem.p.node[c]] @ w_all))
-    scale = max(1.0, float(np.max(np.abs(sol.height(tt)))))
+    scale = max(1.0, float(np.max(np.abs(zeta))))
     ok = (stick_w < 1e-6) and (min_zeta > -1e-8 * scale) and (min_reac > -1e-8) and (acc > -1e-8)
     return Bunch(stick_w_max=stick_w, min_zeta=min_zeta, min_reaction=min_reac,
                  touch_and_go_acceleration=acc, all_pass=bool(ok))
@@ -1056,6 +1179,7 @@ def _solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, 
     start = time.perf_counter()
     problem = _StickProblem(modal, pattern, Gamma, e, n_basis, n_quad)
     x, status, message, nit, history = _newton(problem, problem.initial(), tol, max_iter)
+    solve_time = time.perf_counter() - start
     t, tau_s, J, coef = problem.unpack(x)
     tau_full = np.full(problem.C, np.nan)
     tau_full[problem.stick] = tau_s
@@ -1077,6 +1201,7 @@ def _solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, 
     sol.w_hat = _harmonics(problem, x, n_harmonics)
     sol.checks = _checks(sol, problem, x)
     sol.time = time.perf_counter() - start
+    sol.solve_time = solve_time
     return sol
 
 
@@ -1210,8 +1335,11 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     M : int
     e : float
         Restitution of ``"bounce"`` contacts, in [0, 1) (stick contacts end with w = 0).
-    pattern : StickPattern, optional
-        Contact pattern with initial values.  Default: read from a time-stepped FDA run
+    pattern : StickPattern or ShootingOrbit, optional
+        Contact pattern with initial values, or a periodic orbit found by shooting
+        (:func:`tps_solver.find_periodic_orbit` on ``lattice`` with the same ``Gamma``,
+        ``M``, ``e``), whose pattern and times are read by :func:`pattern_from_orbit`
+        (recommended: a converged orbit carries the orbit's own pattern).  Default: read from a time-stepped FDA run
         (``tps.simulate``, exact integrator, ``periods`` periods) from ``w0, zeta0`` at
         ``t_start`` (default: :func:`kink_state`), see :func:`pattern_from_fda`.
     w0, zeta0 : array_like of float, shape (n_nodes,), keyword-only
@@ -1266,9 +1394,19 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
             raise ValueError(f"the FDA run for the initial pattern failed: {run.message}")
         pattern = pattern_from_fda(run, lattice, T)
         source = f"FDA run of {periods} periods (exact integrator)"
+    elif isinstance(pattern, ShootingOrbit):
+        if not _same_lattice(lattice, pattern.lattice):
+            raise ValueError("pattern (a ShootingOrbit) must be an orbit on this lattice (same nodes, "
+                             f"geometry and boundary); got one on {pattern.lattice.n_nodes} nodes")
+        if abs(pattern.period - T) > 1e-12 or abs(pattern.Gamma - Gamma) > 1e-12 or pattern.e != e:
+            raise ValueError(f"pattern (a ShootingOrbit) must have Gamma = {Gamma}, period 2 pi M = {T:.6g} "
+                             f"and e = {e}; got Gamma = {pattern.Gamma}, period {pattern.period:.6g}, "
+                             f"e = {pattern.e}")
+        source = f"shooting orbit (residual {pattern.residual:.1e})"
+        pattern = pattern_from_orbit(pattern)
     else:
         if not isinstance(pattern, StickPattern):
-            raise ValueError(f"pattern must be a StickPattern, got {type(pattern).__name__}")
+            raise ValueError(f"pattern must be a StickPattern or a ShootingOrbit, got {type(pattern).__name__}")
         if pattern.n_nodes != lattice.n_nodes or abs(pattern.period - T) > 1e-12:
             raise ValueError("pattern must be for this lattice (n_nodes) and period 2 pi M")
         _check_pattern(pattern)
@@ -1319,6 +1457,16 @@ def check_with_fda(sol, periods=1, t_start=None):
         distance between each TPS time and the nearest FDA event of the same node
         and type), ``events_per_period`` (FDA impacts+sticks per node and period, shape
         (n_nodes,)), ``run`` (the FDA result), ``t_start``.
+
+    Examples
+    --------
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+    >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, multipliers=False)
+    >>> sol = solve_stick_lattice(lat, 4.1, pattern=orb)
+    >>> chk = check_with_fda(sol, periods=2)
+    >>> bool(chk.contact_error < 1e-10 and chk.liftoff_error < 1e-10), chk.events_per_period.tolist()
+    (True, [2.0, 2.0, 2.0])
     """
     from .fda import simulate
 
