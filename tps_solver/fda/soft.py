@@ -314,6 +314,11 @@ class SoftIntegrator(Integrator):
         self._qG = self._q / self.Gamma
         self._Te2 = np.array((self._Trep[-1], self._Trep[-1]))
         self._cT = (self._Trep @ (self._lam * self._q)).real     # T diag(lam) T^-1 1 = A 1 = c
+        m = self._lam.size
+        self._Mt = np.zeros((2 * s + self._theta.size, 2 * m + 2))    # see _steps
+        self._Mt[:s, :m], self._Mt[:s, m:2 * m] = self._Trep.real, -self._Trep.imag
+        self._Mt[:s, 2 * m] = 1.0
+        self._Mt[s:2 * s, 2 * m + 1] = 1.0
         self._rows_cache = {}
         self._is_contact = np.array([0.0, 1.0, 0.0])   # lookup tables indexed by mode
         self._is_free = np.array([1.0, 0.0, 0.0])
@@ -460,13 +465,26 @@ class SoftIntegrator(Integrator):
                 Rr = (E @ Zi).real                                                # (2, n)
                 z1 = Rr[1] + z0
                 z1 += (hi * self._cT[-1]) * w0                    # (T diag(mu) T^-1 1)_s w0 = h c_s w0
-                out.append((Rr[0] + w0, z1, None, None))
+                out.append((Rr[0] + w0, z1, None, None, None))
                 continue
-            Rr = (np.concatenate((Tr, Tr * mui)) @ Zi).real                     # (2 s, n)
-            Yw = Rr[:s] + w0
-            Yz = Rr[s:] + z0
-            Yz += np.multiply.outer(hi * self._cT, w0)
-            out.append((Yw[-1].copy(), Yz[-1].copy(), Yw, Yz))
+            # stage values and the zeta grid of the collocation polynomial in one real product
+            # [Yw; Yz; Zgrid] = M @ [Re Z; Im Z; w0; z0]
+            buf = np.empty((2 * m + 2, n))
+            buf[:2 * m].reshape(2, m, n)[...] = x[i * m * n:(i + 1) * m * n, 0].view(float).reshape(
+                m, n, 2).transpose(2, 0, 1)
+            buf[2 * m] = w0
+            buf[2 * m + 1] = z0
+            M = self._Mt.copy()
+            Tm = Tr * mui
+            M[s:2 * s, :m] = Tm.real
+            M[s:2 * s, m:2 * m] = -Tm.imag
+            M[s:2 * s, 2 * m] = hi * self._cT
+            M[2 * s:] = self._dense[:, 1:] @ M[s:2 * s]
+            M[2 * s:, 2 * m + 1] += self._dense[:, 0]
+            Y = M @ buf
+            Yw, Yz, Zg = Y[:s], Y[s:2 * s], Y[2 * s:]
+            Zg[-1] = Yz[-1]                                  # theta = 1 is the last stage, exactly
+            out.append((Yw[-1].copy(), Yz[-1].copy(), Yw, Yz, Zg))
         return out
 
     # --------------------------------------------------------------- violations
@@ -497,15 +515,13 @@ class SoftIntegrator(Integrator):
         """Rows ``cfg.hidx`` of the full :math:`\\underline L u`, u of shape (..., n)."""
         return cfg.hLd * u[..., cfg.hidx] + cfg.hLl * u[..., cfg.him] + cfg.hLu * u[..., cfg.hip]
 
-    def _grid_violation(self, t0, h, w0, z0, Yw, Yz, cfg):
+    def _grid_violation(self, t0, h, w0, Yw, Zg, cfg):
         """Violation on the dense grid of one step: times (G,), values (G, n).
 
-        The last grid point is the step end (``theta = 1``: the last stage, exactly).
+        ``Zg``: zeta on the grid (from :meth:`_steps`); the last grid point is the step end.
         """
         P = self._dense
-        Zg = P[:, 1:] @ Yz
-        Zg += np.multiply.outer(P[:, 0], z0)
-        Zg *= cfg.sgn
+        Zg = Zg * cfg.sgn
         tg = t0 + self._theta * h
         if cfg.hidx.size:
             cols = cfg.hcols
@@ -654,8 +670,8 @@ class SoftIntegrator(Integrator):
             t_mid = t + 0.5 * h
             hh, h2 = t_mid - t, t_new - t_mid
             # trial step and two half steps (error estimate)
-            (w1, z1, _, _), (wa, za, Ywa, Yza) = self._steps(t, (h, hh), w, z, cfg, (False, True), R0)
-            wb, zb, Ywb, Yzb = self._step(t_mid, h2, wa, za, cfg)
+            (w1, z1, _, _, _), (wa, za, Ywa, Yza, Zga) = self._steps(t, (h, hh), w, z, cfg, (False, True), R0)
+            wb, zb, Ywb, Yzb, Zgb = self._step(t_mid, h2, wa, za, cfg)
             scale = self.atol + self.rtol * np.maximum(np.abs(np.concatenate((w, z))),
                                                        np.abs(np.concatenate((wb, zb))))
             err = float(np.max(np.abs(np.concatenate((w1 - wb, z1 - zb))) / scale))
@@ -672,8 +688,8 @@ class SoftIntegrator(Integrator):
                 self._h = h * grow
             # scan both halves for crossings
             v0 = np.minimum(self._violation(t, w, z, mode, cfg, with_rate=False), 0.0)
-            tga, va = self._grid_violation(t, hh, w, z, Ywa, Yza, cfg)
-            tgb, vb = self._grid_violation(t_mid, h2, wa, za, Ywb, Yzb, cfg)
+            tga, va = self._grid_violation(t, hh, w, Ywa, Zga, cfg)
+            tgb, vb = self._grid_violation(t_mid, h2, wa, Ywb, Zgb, cfg)
             tg = np.concatenate(([t], tga[:-1], [t_mid], tgb[:-1], [t_new]))
             vg = np.concatenate((v0[None, :], va, vb))
             pos = vg > 0.0
@@ -773,7 +789,7 @@ class SoftIntegrator(Integrator):
                 return None
             if hk <= 0.0:
                 hk = 0.5 * hi
-            we, ze, _, _ = self._steps(t0, (hk,), w0, z0, cfg, (False,), R)[0]
+            we, ze = self._steps(t0, (hk,), w0, z0, cfg, (False,), R)[0][:2]
             vj, dvj = self._violation_at(j, t0 + hk, we, ze, cfg)
             if vj > 0.0:
                 hi = hk
