@@ -1,8 +1,10 @@
 """Benchmark of the fast soft-contact integrator (``tps_solver.fda.soft.SoftIntegrator``).
 
 Run ``python -m benchmarks.soft_benchmark`` (add ``--full`` for the 17-node Radau comparison over two
-periods, several minutes).  Every timing is taken with ``threadpoolctl.threadpool_limits(1)`` and is
-reported both as wall-clock and as process CPU time (the machine may be shared).
+periods, several minutes; ``--baseline FILE`` to time another version of ``tps_solver/fda/soft.py``
+side by side on the 481-node kink, e.g. ``git show REV:tps_solver/fda/soft.py > /tmp/soft_old.py``).
+Every timing is taken with ``threadpoolctl.threadpool_limits(1)`` and is reported both as wall-clock
+and as process CPU time (the machine may be shared: compare CPU times measured in one run).
 
 Measured, side by side in one run:
 
@@ -10,10 +12,12 @@ Measured, side by side in one run:
   error of the entry and exit times;
 * a kink against the Radau reference ``simulate_soft`` (rtol 1e-11): largest state difference at
   the output times, and the ratio of the run times;
-* the 481-node kink (dx = 0.1, cutoff 0.3): seconds per period, steps and events.
+* the 481-node kink (dx = 0.1, cutoff 0.3, 2 periods by default): seconds per period, steps and
+  events (and, with ``--baseline``, the same for the other version and the CPU-time ratio).
 """
 import argparse
 import contextlib
+import importlib.util
 import time
 
 import numpy as np
@@ -82,14 +86,16 @@ def flat_orbit_errors(periods=50, n_nodes=3, **options):
                 n_events=len(events), wall=wall, cpu=cpu)
 
 
-def kink_vs_radau(n_nodes=9, length=8.0, periods=1.0, rtol=1e-11, n_samples=4, **options):
+def kink_vs_radau(n_nodes=9, length=8.0, periods=1.0, rtol=1e-11, n_samples=4, baseline=None, **options):
     """A pinned kink: SoftIntegrator against Radau ``simulate_soft`` (rtol ``rtol``), times and errors.
 
     Returns
     -------
     dict
         ``state_error`` (largest |dw|, |dzeta| over the samples), ``errors`` per sample, event
-        counts, ``soft_wall``/``soft_cpu``, ``radau_wall``/``radau_cpu`` and their ratios.
+        counts, ``soft_wall``/``soft_cpu``, ``radau_wall``/``radau_cpu`` and their ratios; with
+        ``baseline`` (another ``SoftIntegrator`` class, :func:`load_baseline`) also
+        ``baseline_cpu`` and ``baseline_error`` (its state error against the same reference).
     """
     fl = tps.FlatLayer(GAMMA, M, E)
     lat = tps.Lattice.planar(n_nodes=n_nodes, length=length, boundary="pinned")
@@ -103,7 +109,14 @@ def kink_vs_radau(n_nodes=9, length=8.0, periods=1.0, rtol=1e-11, n_samples=4, *
                                                       t_eval=t_eval, rtol=rtol, atol=0.1 * rtol))
     errs = [float(max(np.max(np.abs(ws - ref.w_eval[k])), np.max(np.abs(zs - ref.zeta_eval[k]))))
             for k, (_, ws, zs) in enumerate(samples)]
-    return dict(n_nodes=n_nodes, length=length, periods=periods, state_error=max(errs), errors=errs,
+    extra = {}
+    if baseline is not None:
+        (_, _, _, _, bsamples), _, b_cpu = _timed(
+            lambda: drive(baseline(lat, GAMMA, E, cutoff=ELL, **options), t0, w, z, t_end, t_eval))
+        extra = dict(baseline_cpu=b_cpu, baseline_error=max(
+            float(max(np.max(np.abs(ws - ref.w_eval[k])), np.max(np.abs(zs - ref.zeta_eval[k]))))
+            for k, (_, ws, zs) in enumerate(bsamples)))
+    return dict(**extra, n_nodes=n_nodes, length=length, periods=periods, state_error=max(errs), errors=errs,
                 soft_impacts=sum(ev[2] == "impact" for ev in events), radau_impacts=int(ref.n_events),
                 soft_wall=s_wall, soft_cpu=s_cpu, radau_wall=r_wall, radau_cpu=r_cpu,
                 ratio_wall=r_wall / s_wall, ratio_cpu=r_cpu / s_cpu, soft_steps=integ.n_steps,
@@ -130,8 +143,24 @@ def sensitivity(n_nodes=17, length=8.0, periods=2.0, n_samples=8, eps=1e-13, **o
     return [float(max(np.max(np.abs(a[1] - b[1])), np.max(np.abs(a[2] - b[2])))) for a, b in zip(*runs)]
 
 
-def big_kink(n_nodes=481, dx=0.1, periods=1, **options):
+def load_baseline(path):
+    """Another version of ``tps_solver/fda/soft.py`` (a file path), loaded as a module of ``tps_solver.fda``.
+
+    Returns
+    -------
+    type
+        Its ``SoftIntegrator`` class.
+    """
+    spec = importlib.util.spec_from_file_location("tps_solver.fda._soft_baseline", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.SoftIntegrator
+
+
+def big_kink(n_nodes=481, dx=0.1, periods=1, integrator=SoftIntegrator, **options):
     """Seconds per period of the soft kink on ``n_nodes`` nodes with spacing ``dx`` (pinned ends).
+
+    ``integrator``: the class to time (default ``SoftIntegrator``; see :func:`load_baseline`).
 
     Returns
     -------
@@ -142,39 +171,58 @@ def big_kink(n_nodes=481, dx=0.1, periods=1, **options):
     lat = tps.Lattice.planar(n_nodes=n_nodes, length=dx * (n_nodes - 1), boundary="pinned")
     t0 = fl.t0 + 1.0
     w, z = kink_state(lat, fl, t0, width=2.0)
-    integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options)
-    (_, _, _, events, _), wall, cpu = _timed(lambda: drive(integ, t0, w, z, t0 + periods * fl.period))
+    integ = integrator(lat, GAMMA, E, cutoff=ELL, **options)
+    (_, wf, zf, events, _), wall, cpu = _timed(lambda: drive(integ, t0, w, z, t0 + periods * fl.period))
     kinds = [ev[2] for ev in events]
     return dict(n_nodes=n_nodes, dx=dx, periods=periods, wall_per_period=wall / periods,
                 cpu_per_period=cpu / periods, n_steps=integ.n_steps, n_rejected=integ.n_rejected,
                 events=len(events), impacts=kinds.count("impact"), liftoffs=kinds.count("liftoff"),
-                sticks=kinds.count("stick"))
+                sticks=kinds.count("stick"), w=wf, zeta=zf, event_times=np.array([ev[0] for ev in events]))
+
+
+def _kink_line(r, label=""):
+    return (f"kink n={r['n_nodes']} dx={r['dx']:g} cutoff={ELL:g}{label}: {r['wall_per_period']:.2f} s wall / "
+            f"{r['cpu_per_period']:.2f} s cpu per period over {r['periods']} period(s); {r['n_steps']} steps "
+            f"({r['n_rejected']} rejected), {r['events']} events ({r['impacts']} impacts, {r['liftoffs']} "
+            f"lift-offs, {r['sticks']} sticks)")
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="add the 17-node, 2-period Radau comparison")
-    parser.add_argument("--periods", type=int, default=1, help="periods of the 481-node kink")
+    parser.add_argument("--periods", type=int, default=2, help="periods of the 481-node kink")
+    parser.add_argument("--baseline", default=None,
+                        help="path of another soft.py to time side by side on the 481-node kink")
     args = parser.parse_args(argv)
     with _limits():
         r = flat_orbit_errors(50)
         print(f"flat orbit, 50 periods: entry error {r['entry_error']:.2e}, exit error "
               f"{r['exit_error']:.2e}, {r['n_events']} events, {r['wall']:.2f} s wall / {r['cpu']:.2f} s cpu")
         r = big_kink(periods=args.periods)
-        print(f"kink n=481 dx=0.1 cutoff=0.3: {r['wall_per_period']:.2f} s wall / {r['cpu_per_period']:.2f} s cpu "
-              f"per period over {r['periods']} period(s); {r['n_steps']} steps ({r['n_rejected']} rejected), "
-              f"{r['events']} events ({r['impacts']} impacts, {r['liftoffs']} lift-offs, {r['sticks']} sticks)")
+        print(_kink_line(r))
+        if args.baseline:
+            b = big_kink(periods=args.periods, integrator=load_baseline(args.baseline))
+            print(_kink_line(b, f" (baseline {args.baseline})"))
+            same = b["events"] == r["events"]
+            dt = float(np.max(np.abs(b["event_times"] - r["event_times"]))) if same else float("nan")
+            print(f"baseline / this: cpu ratio {b['cpu_per_period'] / r['cpu_per_period']:.2f}, wall ratio "
+                  f"{b['wall_per_period'] / r['wall_per_period']:.2f}; final state difference "
+                  f"{max(np.max(np.abs(b['w'] - r['w'])), np.max(np.abs(b['zeta'] - r['zeta']))):.1e}, "
+                  f"event times {dt:.1e}" + ("" if same else " (event counts differ)"))
         # like for like with Radau (which has no sticking rule): a negligible capture speed
         cases = [dict(n_nodes=9, length=8.0, periods=1.0)]
         if args.full:
             cases.append(dict(n_nodes=17, length=8.0, periods=2.0, n_samples=8))
         for case in cases:
-            r = kink_vs_radau(**case, stick_speed=1e-8, max_events=5000)
+            r = kink_vs_radau(**case, stick_speed=1e-8, max_events=5000,
+                              baseline=load_baseline(args.baseline) if args.baseline else None)
             print(f"kink n={r['n_nodes']} over {r['periods']:g} periods vs Radau (rtol 1e-11): state error "
                   f"{r['state_error']:.2e} (per sample {', '.join(f'{x:.1e}' for x in r['errors'])}); "
                   f"impacts {r['soft_impacts']} / {r['radau_impacts']}; soft {r['soft_wall']:.2f} s wall "
                   f"{r['soft_cpu']:.2f} s cpu, Radau {r['radau_wall']:.1f} s wall {r['radau_cpu']:.1f} s cpu; "
-                  f"ratio {r['ratio_wall']:.0f} (wall) {r['ratio_cpu']:.0f} (cpu)")
+                  f"ratio {r['ratio_wall']:.0f} (wall) {r['ratio_cpu']:.0f} (cpu)"
+                  + (f"; baseline soft {r['baseline_cpu']:.2f} s cpu, state error {r['baseline_error']:.2e}"
+                     if "baseline_cpu" in r else ""))
         if args.full:
             d = sensitivity(stick_speed=1e-8, max_events=5000)
             print("kink n=17: state change per sample after a 1e-13 change of the initial w: "

@@ -188,3 +188,37 @@ def test_bad_input_raises_value_error_naming_the_parameter(kwargs, match):
 def test_class_attributes_for_the_driver_registry():
     assert SoftIntegrator.name == "soft" and SoftIntegrator.impulsive is False
     assert "cutoff" in SoftIntegrator.OPTIONS
+
+
+@pytest.mark.parametrize("k", [3, 20])          # the float path (few roots) and the vectorised one
+def test_collocation_root_polish_finds_the_roots_of_known_polynomials(k):
+    """Roots of p(theta) = (theta - r)(theta + 2)^5 from its values at the step nodes (0, c)."""
+    integ = SoftIntegrator(tps.Lattice.planar(n_nodes=3, length=2.0), GAMMA, E, cutoff=ELL)
+    r = np.linspace(0.05, 0.95, k)
+    vals = (integ._nodes[:, None] - r[None, :]) * (integ._nodes[:, None] + 2.0) ** 5
+    lo, hi = r - 0.1, r + 0.1
+    x = integ._poly_roots(vals, lo, hi, r + 0.05)
+    assert np.max(np.abs(x - r)) < 1e-13          # round-off of the monomial form; the guess is 5e-2 off
+
+
+def test_held_node_violation_is_the_free_acceleration_of_the_full_operator():
+    """Held nodes (incl. both ends, on the non-symmetric axisymmetric operator): v = (L w)_i + g(t)."""
+    lat = tps.Lattice.axisymmetric(n_nodes=7, r_max=3.0)
+    integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL)
+    rng = np.random.default_rng(3)
+    w, z = rng.standard_normal(7), rng.standard_normal(7)
+    mode = np.array([2, 0, 1, 2, 2, 0, 2])
+    w[mode == 2] = z[mode == 2] = 0.0
+    cfg = integ._config(mode)
+    t = 0.7
+    v, dv = integ._violation(t, w, z, mode, cfg)
+    held = mode == 2
+    L = np.asarray(lat.operator, float)
+    g = math.sin(t) - 1.0 / GAMMA
+    assert np.allclose(v[held], (L @ w + g)[held], rtol=0, atol=1e-13)
+    assert np.array_equal(v[~held], np.where(mode == 0, -z, z)[~held])
+    dw = L @ w - 2 * integ.beta * (mode == 1) * w - integ.omega0_sq * (mode == 1) * z + g * (mode == 0)
+    dw[held] = 0.0
+    assert np.allclose(dv[held], (L @ dw + math.cos(t))[held], rtol=0, atol=1e-12)
+    for j in range(7):
+        assert integ._violation_at(j, t, w, z, cfg) == (v[j], dv[j])
