@@ -314,6 +314,9 @@ class SoftIntegrator(Integrator):
         self._qG = self._q / self.Gamma
         self._Te2 = np.array((self._Trep[-1], self._Trep[-1]))
         self._cT = (self._Trep @ (self._lam * self._q)).real     # T diag(lam) T^-1 1 = A 1 = c
+        self._c_list = self._c.tolist()
+        self._eig_list = list(zip(self._lam.tolist(), self._q.tolist(), self._qG.tolist(),
+                                  self._Tinv_rep.tolist()))
         m = self._lam.size
         self._Mt = np.zeros((2 * s + self._theta.size, 2 * m + 2))    # see _steps
         self._Mt[:s, :m], self._Mt[:s, m:2 * m] = self._Trep.real, -self._Trep.imag
@@ -407,27 +410,27 @@ class SoftIntegrator(Integrator):
     def _steps(self, t0, hs, w0, z0, cfg, stages=None, R=None):
         """Radau IIA steps of sizes ``hs`` (1 or 2 of them) from the same start, in one ``zgtsv`` call.
 
-        Returns a list of (w1, z1, Yw, Yz), stage values of shape (s, n); ``stages[i]`` False
-        skips the stage values of step i (then ``Yw = Yz = None``).  ``R``: ``_start(w0, z0, cfg)``
-        if already known.
+        Returns a list of (w1, z1, Yw, Yz, Zg): stage values of shape (s, n) and zeta on the scan
+        grid, shape (G, n); ``stages[i]`` False skips them for step i (then ``Yw = Yz = Zg = None``).
+        ``R``: ``_start(w0, z0, cfg)`` if already known.
         """
         k = len(hs)
         self.n_steps += k
         n, m, s = self.n, self._lam.size, self.stages
         if R is None:
             R = self._start(w0, z0, cfg)
-        hv = np.array(hs, float)
-        g = np.sin(t0 + np.multiply.outer(hv, self._c))                          # (k, s)
-        mu = np.multiply.outer(hv, self._lam).ravel()                             # (k m,)
-        # right-hand sides (k m, n) = K @ [aw; f; om2 c w0] in one product
-        K = np.empty((k * m, 3), complex)
-        muq = K[:, 0]
-        np.multiply(mu, self._q if k == 1 else self._q2, out=muq)
-        ghat = (g @ self._Tinv_rep.T - self._qG).ravel()                        # T^-1 (g(t0 + c h))
-        np.multiply(mu, ghat, out=K[:, 1])
-        np.multiply(mu, muq, out=K[:, 2])
-        K[:, 2] *= -1.0
-        rhs = K @ R
+        # right-hand sides (k m, n) = K @ [aw; f; om2 c w0] in one product; K on Python scalars
+        # (3 numbers per eigenvalue: mu T^-1 1, mu T^-1 g(t0 + c h), -mu^2 T^-1 1, with mu = h lam)
+        rows, mus = [], []
+        for h in hs:
+            g = [math.sin(t0 + h * ci) for ci in self._c_list]
+            for lam, q, qG, Ti in self._eig_list:
+                mu_ = h * lam
+                muq = mu_ * q
+                rows.append((muq, mu_ * (sum([a * b for a, b in zip(Ti, g)]) - qG), -mu_ * muq))
+                mus.append(mu_)
+        mu = np.array(mus)
+        rhs = np.array(rows) @ R
         if k == 1:
             h = hs[0]
             diag = cfg.P2 * (h * h)
