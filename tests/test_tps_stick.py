@@ -242,3 +242,17 @@ def test_lattice_kink_from_shooting_against_fda(Gamma, dx):
     for j in range(lat.n_nodes):
         d = np.mod(orb.contact_times[j][:, None] - sol.contact_times[j][None, :] + T / 2, T) - T / 2
         assert np.max(np.min(np.abs(d), axis=1)) < 1e-8
+
+
+@pytest.mark.slow
+def test_lattice_kink_newton_continuation_in_gamma():
+    """The Gamma = 4.1 kink pattern as the start at Gamma = 4.11 (times move by ~0.02): Newton
+    converges (the time columns of the Jacobian are right), and the FDA keeps the new orbit."""
+    lat, orb = _e0_kink_orbit(4.1, 2.0)
+    pattern = ts.pattern_from_orbit(orb)
+    sol = ts.solve_stick_lattice(lat, 4.11, pattern=pattern, tol=1e-11, max_iter=30, refresh=0)
+    assert sol.converged and sol.nit >= 3 and sol.checks.all_pass
+    T = sol.period
+    assert np.max(np.abs(np.mod(sol.pattern.t - pattern.t + T / 2, T) - T / 2)) > 1e-3
+    chk = ts.check_with_fda(sol, periods=2)
+    assert chk.contact_error < 1e-8 and chk.liftoff_error < 1e-8

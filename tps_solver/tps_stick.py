@@ -583,10 +583,23 @@ class _StickProblem:
             reach = reach | (reach.astype(int) @ adj.astype(int) > 0)
             dist[(dist == 99) & reach] = d
         np.fill_diagonal(dist, 0)
+        def canonical(idx, m):
+            # a triggered lift-off *is* its trigger's impact (tau = t[trig] + shift T): the same
+            # event, whatever the iterate
+            if idx >= C:
+                cc = self.stick[idx - C]
+                if pattern.trigger[cc] >= 0:
+                    return int(pattern.trigger[cc]), int(m + pattern.trigger_shift[cc])
+            return int(idx), int(m)
+
         seg = []                      # (s, node, a_idx, a_shift, b_idx, b_shift)
         for s, c in enumerate(self.stick):
             j = pattern.node[c]
             a0, b0 = theta0[c], theta0[C + s]
+            # the interval's own ends are never cuts, also where a neighbour event coincides
+            # with them structurally (the impact that triggers this lift-off, a neighbour's
+            # lift-off triggered by this landing) but not numerically at the initial iterate
+            own = {(int(c), 0), canonical(C + s, 0)}
             pts = []
             for k in np.nonzero((dist[j, pattern.node] >= 1) & (dist[j, pattern.node] <= _BREAK_DISTANCE))[0]:
                 cands = [(k, theta0[k])]
@@ -596,16 +609,20 @@ class _StickProblem:
                     m = math.floor((a0 - tv) / T) + 1
                     while tv + m * T < b0:
                         tm = tv + m * T
-                        if a0 + _BREAK_MARGIN < tm < b0 - _BREAK_MARGIN:
-                            pts.append((tm, idx, m))
+                        key = canonical(idx, m)
+                        if key not in own and a0 + _BREAK_MARGIN < tm < b0 - _BREAK_MARGIN:
+                            pts.append((tm, key[0], key[1]))
                         m += 1
             pts.sort()
-            kept = []
-            for tm, idx, m in pts:         # coincident events (a triggered lift-off and its trigger): one cut
+            kept, seen = [], set()
+            for tm, idx, m in pts:         # one cut per event (a triggered lift-off is its trigger)
+                if (idx, m) in seen:
+                    continue
                 if not kept or tm - kept[-1][0] > _BREAK_MARGIN:
                     kept.append((tm, idx, m))
                 elif idx < C:
                     kept[-1] = (tm, idx, m)
+                seen.add((idx, m))
             ends = [(c, 0)] + [(idx, m) for _, idx, m in kept] + [(C + s, 0)]
             for (ia, ma), (ib, mb) in zip(ends[:-1], ends[1:]):
                 seg.append((s, j, ia, ma, ib, mb))
