@@ -27,7 +27,12 @@ Each Newton step solves :math:`(J - I)\,\delta = -F` by GMRES (modified Gram--Sc
 Arnoldi, no restart) with the matrix-free product
 :math:`Jv \approx [P(x + hv) - P(x)]/h`, :math:`h\,\|v\|_\infty = ` ``fd_step``
 :math:`\cdot\max(1, \|x\|_\infty)`, followed by a backtracking line search on
-:math:`\|F\|_2`.  A multiplier 0 (sticking erases a direction) is harmless:
+:math:`\|F\|_2`.  The soft contact (piecewise linear) uses the exact product instead: matrix
+exponentials between switches and saltation matrices at them
+(:class:`~tps_solver.soft_monodromy.SoftMonodromy`, one period map per Newton step for the
+switch sequence); its multipliers come from the same product (``multipliers_kind``
+``"all (exact)"`` / ``"leading (exact)"``), not from differences.
+A multiplier 0 (sticking erases a direction) is harmless:
 :math:`I - J` stays invertible.  A multiplier near 1 (the front position of a kink,
 a nearly neutral translation) makes :math:`I - J` ill-conditioned: the Newton step
 along that mode is the residual divided by :math:`1 - \mu`, far outside the range where
