@@ -159,6 +159,24 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9, stic
                 stuck_at_section=int(np.count_nonzero(stuck0)) if stuck0 is not None else 0)
 
 
+def integral_width(orb, n_samples=512):
+    """Integral front width ``I = int theta (1 - theta) dx`` (trapezoid rule over the nodes) at the
+    instants where the left and the right far field are highest (those of
+    :func:`validation.shooting.front_width`); theta = (zeta - zeta_L)/(zeta_R - zeta_L).  For
+    theta = (1 + tanh(x/l))/2, I = l and the 10-90 % width is ln(81)/2 l = 2.197 l.
+    Returns (I at left max, I at right max)."""
+    ts = orb.t_start + orb.period * np.arange(n_samples) / n_samples
+    Z = orb.height(ts)
+    x = orb.lattice.nodes
+    out = []
+    for col in (0, -1):
+        z = Z[int(np.argmax(Z[:, col]))]
+        th = (z - z[0]) / (z[-1] - z[0])
+        f = th * (1.0 - th)
+        out.append(float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(x))))
+    return tuple(out)
+
+
 def kink_row(Gamma, dx, length=40.0, M=2, periods=10, max_iter=80, callback=None):
     """The e = 0 kink at one (Gamma, dx) by shooting, with its contact pattern.
 
@@ -226,11 +244,15 @@ def gamma_table(gammas=GAMMAS, dxs=DXS + (0.25,)):
                 if orb is not None and orb.events is not None:
                     row["pattern"] = contact_pattern(orb.events, orb.lattice.n_nodes, orb.period, orb.stuck0,
                                                      sticking_intervals=orb.sticking_intervals, brief=BRIEF)
+                if orb is not None and orb.converged and "iwidth" not in row:
+                    row["iwidth"] = list(integral_width(orb))      # cached in the saved row
+                    with open(p, "w") as f:
+                        json.dump({k: v for k, v in row.items() if k != "pattern"}, f, indent=1, default=float)
                 rows.append(row)
     return rows
 
 
-def convergence(rows, which=0, rtol_monotone=0.0):
+def convergence(rows, which=0, key="width"):
     """Front width vs dx for one Gamma: successive differences, observed order, Richardson value.
 
     Parameters
@@ -239,6 +261,9 @@ def convergence(rows, which=0, rtol_monotone=0.0):
         Converged :func:`kink_row` rows of one Gamma (any dx order; dx halves between rows).
     which : {0, 1}
         The front width at the left (0) or right (1) far-field maximum.
+    key : {"width", "iwidth"}
+        The 10-90 % width (:func:`validation.shooting.front_width`) or the integral width
+        (:func:`integral_width`).
 
     Returns
     -------
@@ -248,9 +273,9 @@ def convergence(rows, which=0, rtol_monotone=0.0):
         ``richardson`` (w(dx_min) - d_last / (2**p - 1) with the last order p, only when the
         sequence is monotone and 0.5 < p < 6; else NaN), ``verdict`` (str).
     """
-    rr = sorted((r for r in rows if r.get("converged") and "width" in r), key=lambda r: -r["dx"])
+    rr = sorted((r for r in rows if r.get("converged") and key in r), key=lambda r: -r["dx"])
     dx = [r["dx"] for r in rr]
-    w = [float(r["width"][which]) for r in rr]
+    w = [float(r[key][which]) for r in rr]
     d = [w[i] - w[i + 1] for i in range(len(w) - 1)]
     orders = [math.log2(abs(d[i] / d[i + 1])) if d[i + 1] != 0 else float("inf") for i in range(len(d) - 1)]
     monotone = len(d) > 0 and (all(x > 0 for x in d) or all(x < 0 for x in d))
@@ -415,8 +440,9 @@ def main(parts=("table", "convergence", "oscillon")):
         print("\n## Front width vs dx\n")
         crow = []
         for G in sorted({r["Gamma"] for r in rows}):
-            for which, name in ((0, "left max"), (1, "right max")):
-                c = convergence([r for r in rows if r["Gamma"] == G], which)
+            for key, which, name in (("width", 0, "10-90 %, left max"), ("width", 1, "10-90 %, right max"),
+                                     ("iwidth", 0, "integral, left max")):
+                c = convergence([r for r in rows if r["Gamma"] == G], which, key)
                 crow.append(dict(Gamma=G, at=name, dx=c["dx"], width=", ".join(f"{v:.4f}" for v in c["width"]),
                                  diffs=", ".join(f"{v:.2e}" for v in c["diffs"]),
                                  orders=", ".join(f"{v:.2f}" for v in c["orders"]),
