@@ -92,7 +92,9 @@ def test_no_switch_gives_expm_of_the_generator():
     # all nodes compressed and moving down: soft contact throughout a short segment
     Jc = soft_monodromy(lat, G, E, ELL, np.full(3, -1.0), np.full(3, -0.01), 0.0, 0.02)
     assert Jc.switches == []
-    tau_c, om2, beta = Jc.tau_c, Jc.omega0_sq, Jc.beta
+    tau_c = ELL ** 2                                   # the contact constants, written out
+    beta = -np.log(E) / tau_c
+    om2 = (np.pi / tau_c) ** 2 + beta ** 2
     Ac = A.copy()
     Ac[:3, :3] -= 2.0 * beta * np.eye(3)
     Ac[:3, 3:] = -om2 * np.eye(3)
