@@ -69,3 +69,19 @@ def test_gamma41_dx2_kink_matches_shooting_section():
     kinds = sorted(s.replace("*", "") for s in p["sequences"])
     assert kinds == ["L S L S"] + ["L T S"] * 20
     assert row["defect10"] < 1e-10
+
+
+@pytest.mark.slow
+def test_e0_oscillon_core_collapses_by_curvature():
+    # the planar e = 0 kink is a periodic orbit (neutral front); a circular core must shrink, and a
+    # curvature-driven collapse has R dR/dk constant: the first- and second-half fits of R**2
+    # must agree (validation/sections/inelastic_kinks.md: R dR/dk = -5.59 per period at dr = 1)
+    from validation.inelastic_kinks import fit_radii, oscillon_rates
+
+    row, = oscillon_rates(4.1, R0s=(20.0,), r_max=60.0, dr=1.0, periods=30)
+    R = np.asarray(row["radii"])
+    assert row["status"] == 0 and R[-1] < 3.0 and np.all(np.diff(R[1:]) <= 0.0)
+    assert -8.0 < row["R_dRdk"] < -4.0
+    early = fit_radii(R[:15], 1.0, 60.0)[2]
+    late = 0.5 * np.polyfit(np.arange(15, 26), R[15:26] ** 2, 1)[0]
+    assert late == pytest.approx(early, rel=0.15)

@@ -19,8 +19,10 @@ Functions (each returns rows of measured numbers; ``main()`` prints markdown tab
 * :func:`oscillon_rates` -- an e = 0 oscillon core (half a period shifted) on an axisymmetric
   lattice, time stepped; the core radius per period and dR/dperiod.
 
-Run one case (saves JSON + pickle): ``python -m validation.inelastic_kinks run GAMMA DX``;
-print the tables: ``python -m validation.inelastic_kinks`` (reads the saved cases).  Timings are
+Run one kink (saves JSON + pickle under ``SCRATCH``): ``python -m validation.inelastic_kinks run GAMMA DX``;
+one oscillon set (R0 = 10, 20): ``python -m validation.inelastic_kinks run-oscillon GAMMA DR [PERIODS]``;
+the figures: ``python -m validation.inelastic_kinks figures``; print the tables:
+``python -m validation.inelastic_kinks [table] [convergence] [oscillon]`` (reads the saved cases).  Timings are
 wall-clock on the shared 2-core machine, single-threaded BLAS (threadpoolctl).
 """
 import json
@@ -316,6 +318,25 @@ def core_radius(nodes, zeta, z_in, z_out, level=0.5):
     return float(nodes[i - 1] + (th[i - 1] - level) * (nodes[i] - nodes[i - 1]) / (th[i - 1] - th[i]))
 
 
+def fit_radii(R, dr, r_max, k0=1):
+    """Fits of the core radius R_k (k = 0, 1, ...) over the periods k >= k0 while 3 dr < R < r_max - 3 dr.
+
+    Returns (rate, rate_last10, R_dRdk, n_fit): least-squares dR/dk over those periods and over the
+    last 10 of them, and half the least-squares slope of R**2 (R dR/dk; constant for a
+    curvature-driven collapse R**2 = R0**2 - 2 D k).  NaN where fewer than 3 periods qualify.
+    """
+    R = np.asarray(R, dtype=float)
+    k = np.arange(R.size)
+    ok = (k >= k0) & (R > 3 * dr) & (R < r_max - 3 * dr)
+    kk = k[ok]
+    if kk.size < 3:
+        return float("nan"), float("nan"), float("nan"), int(kk.size)
+    rate = float(np.polyfit(kk, R[kk], 1)[0])
+    last = kk[-10:]
+    rate10 = float(np.polyfit(last, R[last], 1)[0])
+    return rate, rate10, float(0.5 * np.polyfit(kk, R[kk] ** 2, 1)[0]), int(kk.size)
+
+
 def oscillon_rates(Gamma=4.1, R0s=(10.0, 20.0), r_max=60.0, dr=1.0, periods=30, M=2, method="exact",
                    width=2.0):
     """e = 0 oscillon cores, time stepped on a uniform axisymmetric Neumann lattice.
@@ -325,11 +346,8 @@ def oscillon_rates(Gamma=4.1, R0s=(10.0, 20.0), r_max=60.0, dr=1.0, periods=30, 
     sampled at the phase of largest flat-layer height contrast and the core radius (theta = 0.5,
     :func:`core_radius`) is recorded.
 
-    Returns rows: Gamma, R0, dr, r_max, method, seconds, radii (per period, list), rate (dR/dperiod,
-    least squares over the periods after the first 5 while the core exists and stays 3 dr off
-    the axis and the rim), rate_last10 (the same over the last 10 such periods), R_dRdk (half the
-    least-squares slope of R**2 over the same periods: constant for a curvature-driven collapse),
-    n_fit, R_end, status.
+    Returns rows: Gamma, R0, dr, r_max, method, seconds, radii (per period, list), rate,
+    rate_last10, R_dRdk, n_fit (:func:`fit_radii`, periods k >= 1), R_end, status.
     """
     T = 2.0 * math.pi * M
     s = math.asin(1.0 / Gamma) + 0.25 * T
@@ -346,16 +364,10 @@ def oscillon_rates(Gamma=4.1, R0s=(10.0, 20.0), r_max=60.0, dr=1.0, periods=30, 
                            max_events_per_cycle=10 ** 7)
         sec = time.perf_counter() - tic
         R = np.array([core_radius(lat.nodes, zk, z_in, z_out) for zk in run.zeta_eval])
-        k = np.arange(R.size)
-        ok = (k >= 5) & (R > 3 * dr) & (R < r_max - 3 * dr)
-        rate = float(np.polyfit(k[ok], R[ok], 1)[0]) if ok.sum() >= 3 else float("nan")
-        kk = k[ok][-10:]
-        rate10 = float(np.polyfit(kk, R[kk], 1)[0]) if kk.size >= 3 else float("nan")
-        # curvature-driven collapse: R dR/dk = const  <=>  R**2 linear in k
-        half_r2 = float(0.5 * np.polyfit(k[ok], R[ok] ** 2, 1)[0]) if ok.sum() >= 3 else float("nan")
+        rate, rate10, half_r2, n_fit = fit_radii(R, dr, r_max)
         rows.append(dict(Gamma=float(Gamma), R0=float(R0), dr=float(dr), r_max=float(r_max), method=method,
                          periods=periods, seconds=sec, status=int(run.status), radii=R.tolist(), rate=rate,
-                         rate_last10=rate10, R_dRdk=half_r2, n_fit=int(ok.sum()), R_end=float(R[-1]), sample_phase=ph, n_events=int(run.n_events)))
+                         rate_last10=rate10, R_dRdk=half_r2, n_fit=n_fit, R_end=float(R[-1]), sample_phase=ph, n_events=int(run.n_events)))
     return rows
 
 
@@ -458,6 +470,7 @@ def main(parts=("table", "convergence", "oscillon")):
                     with open(p) as f:
                         for r in json.load(f):
                             R = r["radii"]
+                            r["rate"], r["rate_last10"], r["R_dRdk"], r["n_fit"] = fit_radii(R, r["dr"], r["r_max"])
                             r["R_every5"] = [round(v, 2) for v in R[::5]]
                             orow.append(r)
         if orow:
@@ -468,7 +481,7 @@ def main(parts=("table", "convergence", "oscillon")):
 
 
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["oscillon"]:
+    if sys.argv[1:2] == ["run-oscillon"]:
         G, dr = float(sys.argv[2]), float(sys.argv[3])
         with _limits():
             rows = oscillon_rates(G, dr=dr, periods=int(sys.argv[4]) if len(sys.argv) > 4 else 30)
