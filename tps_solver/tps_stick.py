@@ -1341,7 +1341,7 @@ def _flat_functions(orb):
 
 def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None, zeta0=None,
                         t_start=None, periods=20, n_basis=6, n_quad=16, tol=1e-10, max_iter=15,
-                        n_harmonics=32, refresh=1):
+                        n_harmonics=32, refresh=1, shoot=True):
     r"""Periodic orbit with impact-and-stick contacts on a Neumann FDA lattice.
 
     Parameters
@@ -1374,12 +1374,20 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     refresh : int, keyword-only
         If Newton fails, re-read the pattern from a 3-period FDA run started on the last
         iterate and solve again, up to this many times.
+    shoot : bool, keyword-only
+        Without ``pattern``: converge the FDA run's final state to a periodic orbit by
+        shooting (:func:`tps_solver.find_periodic_orbit`) and read the pattern from that
+        orbit (:func:`pattern_from_orbit`); the pattern of an unsettled run may be wrong
+        (a transient touch-and-go, a missing triggered lift-off), and its times are far
+        from the orbit's along the slowly decaying front mode, where Newton does not
+        converge.  If shooting fails the FDA run's pattern is used (``pattern_source``
+        says so).  False: the FDA run's pattern.
 
     Returns
     -------
     StickSolution
-        Also ``fda`` (the run the initial pattern came from, if any), ``lattice`` and
-        ``pattern_source``.
+        Also ``fda`` (the FDA run of the default start, if any), ``orbit`` (the shooting
+        orbit the pattern came from, if any), ``lattice`` and ``pattern_source``.
 
     Examples
     --------
@@ -1398,7 +1406,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics = _check_args(
         Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics)
     T = 2 * math.pi * M
-    run = None
+    run = orbit = None
     if pattern is None:
         periods = check_int(periods, "periods", minimum=2)
         if w0 is None or zeta0 is None:
@@ -1409,8 +1417,19 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
                        method="exact")
         if run.status != 0:
             raise ValueError(f"the FDA run for the initial pattern failed: {run.message}")
-        pattern = pattern_from_fda(run, lattice, T)
         source = f"FDA run of {periods} periods (exact integrator)"
+        if shoot:
+            from .shooting import find_periodic_orbit
+
+            orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, guess=run, max_iter=80,
+                                        multipliers=False)
+        if orbit is not None and orbit.converged:
+            pattern = pattern_from_orbit(orbit)
+            source += f", then shooting (residual {orbit.residual:.1e})"
+        else:
+            pattern = pattern_from_fda(run, lattice, T)
+            if orbit is not None:
+                source += f" (shooting did not converge: {orbit.message}; pattern of the FDA run)"
     elif isinstance(pattern, ShootingOrbit):
         if not _same_lattice(lattice, pattern.lattice):
             raise ValueError("pattern (a ShootingOrbit) must be an orbit on this lattice (same nodes, "
@@ -1420,6 +1439,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
                              f"and e = {e}; got Gamma = {pattern.Gamma}, period {pattern.period:.6g}, "
                              f"e = {pattern.e}")
         source = f"shooting orbit (residual {pattern.residual:.1e})"
+        orbit = pattern
         pattern = pattern_from_orbit(pattern)
     else:
         if not isinstance(pattern, StickPattern):
@@ -1432,6 +1452,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
                          max_iter, n_harmonics)
     sol.fda = run
+    sol.orbit = orbit
     sol.lattice = lattice
     refresh = check_int(refresh, "refresh", minimum=0)
     for k in range(refresh):
@@ -1450,6 +1471,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
         sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
                              max_iter, n_harmonics)
         sol.fda = run
+        sol.orbit = orbit
         sol.lattice = lattice
     sol.pattern_source = source
     return sol
