@@ -92,7 +92,7 @@ from scipy.optimize import brentq
 
 from ._result import Bunch
 from ._checks import check_int, check_positive, check_real, check_restitution
-from .shooting import ShootingOrbit
+from .shooting import ShootingOrbit, find_periodic_orbit
 
 __all__ = ["StickSolution", "StickPattern", "flat_stick_orbit", "solve_stick_flat", "check_with_fda",
            "solve_stick_lattice", "pattern_from_fda", "pattern_from_orbit", "kink_state"]
@@ -1419,8 +1419,6 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
             raise ValueError(f"the FDA run for the initial pattern failed: {run.message}")
         source = f"FDA run of {periods} periods (exact integrator)"
         if shoot:
-            from .shooting import find_periodic_orbit
-
             orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, guess=run, max_iter=80,
                                         multipliers=False)
         if orbit is not None and orbit.converged:
