@@ -340,7 +340,7 @@ def orbit_period_figure(orbit, n_times=200, n_snapshots=6):
     >>> import tps_solver as tps
     >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
     >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
-    ...                               multipliers=False)
+    ...                               section="fixed", multipliers=False)
     >>> fig = orbit_period_figure(orb, n_times=8, n_snapshots=2)
     >>> [ax.get_xlabel() for ax in fig.axes[:2]]
     ['$x$ (viscous lengths)', '$x$ (viscous lengths)']
@@ -407,7 +407,7 @@ def plot_orbit_period(orbit, path, n_times=200, n_snapshots=6, dpi=120):
     >>> import tps_solver as tps
     >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
     >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
-    ...                               multipliers=False)
+    ...                               section="fixed", multipliers=False)
     >>> open_before = plt.get_fignums()
     >>> with mock.patch.object(Figure, "savefig", autospec=True) as savefig:
     ...     path = plot_orbit_period(orb, "orbit.png", n_times=4, n_snapshots=1)
@@ -453,7 +453,7 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9, zoom=True):
     >>> import tps_solver as tps
     >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
     >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
-    ...                               multipliers=False)
+    ...                               section="fixed", multipliers=False)
     >>> fig = contact_pattern_figure(orb)
     >>> ax = fig.axes[0]
     >>> [(c.get_label(), len(c.get_segments() if hasattr(c, "get_segments") else c.get_offsets()))
@@ -544,7 +544,7 @@ def plot_contact_pattern(orbit, path, trigger_tol=1e-9, zoom=True, dpi=120):
     >>> import tps_solver as tps
     >>> lat = tps.Lattice.planar(n_nodes=3, length=4.0)
     >>> orb = tps.find_periodic_orbit(lat, Gamma=4.1, M=2, e=0.0, guess=tps.FlatLayer(Gamma=4.1, M=2, e=0.0),
-    ...                               multipliers=False)
+    ...                               section="fixed", multipliers=False)
     >>> open_before = plt.get_fignums()
     >>> with mock.patch.object(Figure, "savefig", autospec=True) as savefig:
     ...     path = plot_contact_pattern(orb, "pattern.png")
