@@ -105,6 +105,7 @@ _MEDIUM = 1e-3              # segments shorter than this: at most 2 reaction ter
 _COLL_SCALE = 1e-2          # collocated w = 0 is divided by max(segment length, this)
 _BREAK_DISTANCE = 3          # cut stick intervals at events of nodes up to this graph distance
 _SHORT = 1e-6               # shorter than this: one reaction term, balanced at the midpoint
+_CHUNK = 2 ** 22            # elements of the (requests, segments, modes) temporaries per chunk
 
 
 # ----------------------------------------------------------------- flat layer
@@ -700,7 +701,18 @@ class _StickProblem:
 
     # --------------------------------------------------------------- kernels
     def _impulse(self, req_node, req_time, req_W, req_own, imp, t, deriv=False):
-        """R_{j,i}(tau) (or dR/dtau) for requests x impulses; shape (E, len(imp))."""
+        """R_{j,i}(tau) (or dR/dtau) for requests x impulses; shape (E, len(imp)) (in chunks of requests)."""
+        E = req_node.size
+        step = max(1, _CHUNK // max(1, imp.size * self.m.lam.size))
+        if E <= step:
+            return self._impulse_chunk(req_node, req_time, req_W, req_own, imp, t, deriv)
+        out = np.empty((E, imp.size))
+        for i in range(0, E, step):
+            sl = slice(i, i + step)
+            out[sl] = self._impulse_chunk(req_node[sl], req_time[sl], req_W[sl], req_own[sl], imp, t, deriv)
+        return out
+
+    def _impulse_chunk(self, req_node, req_time, req_W, req_own, imp, t, deriv=False):
         T, md = self.T, self.m
         tau = np.mod(req_time[:, None] - t[imp][None, :], T)
         tau = np.where(req_own[:, None] == imp[None, :], T, tau)
@@ -732,7 +744,22 @@ class _StickProblem:
         return Fv
 
     def _intervals(self, req_node, req_time, req_W, segs, theta):
-        """Responses of requests to segment sources; shape (E, len(segs), nbmax + 1)."""
+        """Responses of requests to segment sources; shape (E, len(segs), nbmax + 1).
+
+        Evaluated in chunks of requests so that the (requests, segments, modes) temporaries
+        stay below ~``_CHUNK`` elements (a 81-node kink has ~300 segments and 81 modes)."""
+        E = req_node.size
+        per = max(1, segs.size * self.m.lam.size)
+        step = max(1, _CHUNK // per)
+        if E <= step:
+            return self._intervals_chunk(req_node, req_time, req_W, segs, theta)
+        out = np.empty((E, segs.size, self.nbmax + 1))
+        for i in range(0, E, step):
+            sl = slice(i, i + step)
+            out[sl] = self._intervals_chunk(req_node[sl], req_time[sl], req_W[sl], segs, theta)
+        return out
+
+    def _intervals_chunk(self, req_node, req_time, req_W, segs, theta):
         T, md = self.T, self.m
         E = req_node.size
         out = np.zeros((E, segs.size, self.nbmax + 1))
