@@ -75,12 +75,13 @@ def test_bad_input_names_the_parameter(call, name):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("t_start, width, mu", [
-    (np.arcsin(1 / 4.1) + np.pi, 9.0136, 0.98284),     # the start of validation.shooting.e0_kinks
-    (None, 9.0291, 1.00502),                           # the default start: the other pinned position
+    (None, 9.0136, 0.98284),          # the default start = that of validation.shooting.e0_kinks
+    (4.319689898685965, 9.0291, 1.00502),           # another start: the other pinned position
 ])
 def test_e0_kink_dx2_two_pinned_fronts(t_start, width, mu):
     """Gamma = 4.1, dx = 2: the stable kink of validation/sections/shooting.md (front width 9.01,
-    |mu| = 0.983) and, from the default start, the weakly unstable one at the other lattice position."""
+    |mu| = 0.983) from the default start and, from another, the weakly unstable one at the other
+    lattice position."""
     lat = tps.Lattice.planar(n_nodes=21, length=40.0)
     orb = lattice_kink(lat, Gamma=4.1, e=0.0, periods=10, t_start=t_start, max_iter=80, n_multipliers=4,
                        dense_max=100)
