@@ -145,6 +145,18 @@ class ShootingOrbit(PeriodicOrbit):
     simultaneous_contacts : bool
         Two contacts at different nodes closer in time than ``simultaneity``.
     lattice, Gamma, M, e, method, cutoff, time
+
+    Examples
+    --------
+    >>> import numpy as np, tps_solver as tps
+    >>> coarse = tps.Lattice.planar(n_nodes=8, length=140.0)
+    >>> cyc = tps.solve_lattice_cycle(coarse, Gamma=2.5, M=2, e=0.45, t0=None)
+    >>> orb = tps.find_periodic_orbit(coarse, Gamma=2.5, M=2, e=0.45, guess=cyc, multipliers=False)
+    >>> isinstance(orb, ShootingOrbit), orb.status, orb.multipliers_kind
+    (True, 0, 'none')
+    >>> z = orb.height(orb.t_start + orb.period * np.arange(4) / 4)     # shape (4, n_nodes)
+    >>> z.shape, bool(np.max(np.abs(orb.height(orb.t_start + orb.period) - orb.zeta0)) < 1e-10)
+    ((4, 8), True)
     """
 
     @property
