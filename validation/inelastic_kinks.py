@@ -179,6 +179,44 @@ def integral_width(orb, n_samples=512):
     return tuple(out)
 
 
+class _SteppedState:
+    """A time-stepped (not converged) kink state with the interface front_width needs."""
+
+    def __init__(self, lattice, Gamma, w, z, stuck, t_start, period):
+        self.lattice, self.Gamma, self.w0, self.zeta0, self.stuck0 = lattice, Gamma, w, z, stuck
+        self.t_start, self.period = t_start, period
+
+    def height(self, ts):
+        run = tps.simulate(self.lattice, self.Gamma, 0.0, self.w0, self.zeta0, t_start=self.t_start,
+                           t_end=float(np.max(ts)) + 1e-9, t_eval=ts, stuck0=self.stuck0,
+                           max_events_per_cycle=10 ** 7)
+        return run.zeta_eval
+
+
+def stepped_widths(Gamma, dx, periods=10, length=40.0, M=2):
+    """Front widths of the time-stepped e = 0 kink (the shooting guess, not a periodic orbit).
+
+    Returns a dict: Gamma, dx, periods, defect (max |x(t + T) - x(t)| after ``periods``
+    periods), width (:func:`validation.shooting.front_width`), iwidth (:func:`integral_width`),
+    seconds.
+    """
+    from validation.shooting import e0_kink_guess
+
+    n = int(round(length / dx)) + 1
+    lat = tps.Lattice.planar(n_nodes=n, length=length)
+    T = 2.0 * math.pi * M
+    tic = time.perf_counter()
+    run = e0_kink_guess(lat, Gamma, M, periods)
+    st = _SteppedState(lat, Gamma, run.w, run.zeta, run.stuck, run.t, T)
+    nxt = tps.simulate(lat, Gamma, 0.0, run.w, run.zeta, t_start=run.t, t_end=run.t + T, stuck0=run.stuck,
+                       max_events_per_cycle=10 ** 7)
+    defect = float(max(np.max(np.abs(nxt.w - run.w)), np.max(np.abs(nxt.zeta - run.zeta))))
+    out = dict(Gamma=float(Gamma), dx=float(dx), periods=periods, defect=defect,
+               width=list(front_width(st)), iwidth=list(integral_width(st)))
+    out["seconds"] = time.perf_counter() - tic
+    return out
+
+
 def kink_row(Gamma, dx, length=40.0, M=2, periods=10, max_iter=80, callback=None):
     """The e = 0 kink at one (Gamma, dx) by shooting, with its contact pattern.
 
@@ -460,7 +498,41 @@ def main(parts=("table", "convergence", "oscillon")):
                                  orders=", ".join(f"{v:.2f}" for v in c["orders"]),
                                  richardson=f"{c['richardson']:.4f}",
                                  verdict=c["verdict"]))
+        # dx <= 1 only (dx = 2 is in the other contact regime), with the time-stepped dx = 0.25 proxy
+        for G in GAMMAS:
+            p = os.path.join(SCRATCH, f"stepped_G{G:g}_dx0.25.json")
+            if not os.path.exists(p):
+                continue
+            with open(p) as f:
+                proxy = dict(json.load(f), converged=True)
+            sub = [r for r in rows if r["Gamma"] == G and r["dx"] <= 1.0] + [proxy]
+            for key, which, name in (("width", 0, "10-90 %, left max, dx <= 1, dx = 0.25 time-stepped"),
+                                     ("iwidth", 0, "integral, left max, dx <= 1, dx = 0.25 time-stepped")):
+                c = convergence(sub, which, key)
+                crow.append(dict(Gamma=G, at=name, dx=c["dx"], width=", ".join(f"{v:.4f}" for v in c["width"]),
+                                 diffs=", ".join(f"{v:.2e}" for v in c["diffs"]),
+                                 orders=", ".join(f"{v:.2f}" for v in c["orders"]),
+                                 richardson=f"{c['richardson']:.4f}", verdict=c["verdict"]))
         print(table(crow, ["Gamma", "at", "dx", "width", "diffs", "orders", "richardson", "verdict"]))
+        srow = []
+        for G in GAMMAS:
+            for dx in DXS + (0.25,):
+                p = os.path.join(SCRATCH, f"stepped_G{G:g}_dx{dx:g}.json")
+                if os.path.exists(p):
+                    with open(p) as f:
+                        r = json.load(f)
+                    conv = [c for c in rows if c["Gamma"] == G and c["dx"] == dx and c.get("converged")]
+                    r["width_10_90"] = ", ".join(f"{v:.4f}" for v in r["width"])
+                    r["integral"] = ", ".join(f"{v:.4f}" for v in r["iwidth"])
+                    if conv:
+                        r["orbit_10_90"] = ", ".join(f"{v:.4f}" for v in conv[0]["width"])
+                        r["orbit_integral"] = ", ".join(f"{v:.4f}" for v in conv[0].get("iwidth", []))
+                    srow.append(r)
+        if srow:
+            print("\nTime-stepped kink after 10 periods (the shooting guess, not a periodic orbit), "
+                  "widths at the left / right far-field maxima, next to the periodic orbit's where it exists:\n")
+            print(table(srow, ["Gamma", "dx", "periods", "defect", "seconds", "width_10_90", "orbit_10_90",
+                               "integral", "orbit_integral"]))
     if "oscillon" in parts:
         orow = []
         for G in GAMMAS:
@@ -494,6 +566,13 @@ if __name__ == "__main__":
         row = run(float(sys.argv[2]), float(sys.argv[3]))
         print({k: v for k, v in row.items() if k != "pattern"})
         print(row.get("pattern", {}).get("histogram"))
+    elif sys.argv[1:2] == ["stepped"]:
+        G, dx = float(sys.argv[2]), float(sys.argv[3])
+        with _limits():
+            row = stepped_widths(G, dx)
+        with open(os.path.join(SCRATCH, f"stepped_G{G:g}_dx{dx:g}.json"), "w") as f:
+            json.dump(row, f, indent=1)
+        print(row)
     elif sys.argv[1:2] == ["figures"]:
         print(figures(), oscillon_figure())
     else:
