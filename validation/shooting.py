@@ -163,6 +163,41 @@ def e0_kinks(dxs=(2.0, 1.0, 0.5), length=40.0, Gamma=4.1, M=2, periods=10, max_i
     return rows
 
 
+def _match(a, b):
+    d = np.abs(np.asarray(a)[:, None] - np.asarray(b)[None, :])
+    return float(max(d.min(0).max(), d.min(1).max()))
+
+
+def soft_flat_multipliers(Gamma=2.5, M=2, e=0.45, cutoff=0.3):
+    """Soft contact, flat lattice: multipliers of ``check_stability`` and ``find_periodic_orbit``
+    (both from the exact soft monodromy) against the closed-form per-mode soft flat monodromy
+    ``SoftFlatOrbit.monodromy``.  Returns rows (case, kind, error, seconds)."""
+    from tps_solver.lattice import lattice_eigenvalues
+
+    ref = tps.SoftFlatOrbit(Gamma, M, e, cutoff)
+    fl = tps.FlatLayer(Gamma, M, e=e)
+    rows = []
+    tic = time.perf_counter()
+    chk = tps.check_stability(fl, periods=3, n_nodes=3, length=2.0, method="soft", cutoff=cutoff, jacobian=True)
+    sec = time.perf_counter() - tic
+    want = np.concatenate([np.linalg.eigvals(Mk) for Mk in
+                           ref.monodromy(lattice_eigenvalues(chk.lattice), t_section=chk.section_time)])
+    rows.append(dict(case="check_stability, 3 nodes, jacobian=True", kind=chk.multipliers_kind,
+                     error=_match(chk.multipliers, want), seconds=sec))
+    lat = tps.Lattice.planar(n_nodes=3, length=1.0)
+    t_s = ref.t_exit + 0.5 * ref.flight
+    w, z = ref.state(t_s)
+    guess = (np.full(3, float(w)) + 1e-4 * np.array([1.0, -1.0, 0.5]), np.full(3, float(z)))
+    want = np.concatenate([np.linalg.eigvals(Mk) for Mk in ref.monodromy(lattice_eigenvalues(lat), t_section=t_s)])
+    tic = time.perf_counter()
+    orb = find_periodic_orbit(lat, Gamma, M, e, cutoff=cutoff, guess=guess, t_start=t_s, section="fixed")
+    sec = time.perf_counter() - tic
+    rows.append(dict(case=f"find_periodic_orbit, 3 nodes (residual {orb.residual:.1e}, {orb.nit} Newton steps, "
+                          f"{orb.n_period_maps} maps)", kind=orb.multipliers_kind,
+                     error=_match(orb.multipliers, want), seconds=sec))
+    return rows
+
+
 PAPER = {"e = 0.45": dict(e=0.45), "paper t0 = 0 (e = 0.4307)": dict(t0=0.0)}
 
 
@@ -238,9 +273,12 @@ def _progress(i, r):
     print(f"    Newton step {i}: residual {r:.3g}", flush=True)
 
 
-def main(parts=("coarse", "e0", "paper")):
+def main(parts=("coarse", "soft", "e0", "paper")):
     """Print the measured tables (markdown)."""
     with _limits():
+        if "soft" in parts:
+            print("\n## Soft contact: multipliers of a flat lattice against the closed-form monodromy\n")
+            print(table(soft_flat_multipliers(), ["case", "kind", "error", "seconds"]))
         if "coarse" in parts:
             print("\n## Shooting vs the exact coarse-lattice cycle (8 nodes, spacing 20, e = 0.45)\n")
             rows = coarse_cycle()
@@ -266,4 +304,4 @@ def main(parts=("coarse", "e0", "paper")):
 
 
 if __name__ == "__main__":
-    main(tuple(sys.argv[1:]) or ("coarse", "e0", "paper"))
+    main(tuple(sys.argv[1:]) or ("coarse", "soft", "e0", "paper"))
