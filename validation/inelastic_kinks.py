@@ -14,13 +14,18 @@ Functions (each returns rows of measured numbers; ``main()`` prints markdown tab
 * :func:`kink_row` -- one (Gamma, dx) kink: convergence, residual, Newton steps, seconds, the two
   front widths, contact pattern, leading multipliers, 10-period defect;
 * :func:`gamma_table` -- the rows saved by ``run`` (one JSON per case under ``SCRATCH``);
+* :func:`integral_width` -- the integral front width int theta (1 - theta) dx;
+* :func:`stepped_widths` -- front widths of the time-stepped kink (a proxy where shooting is too slow);
 * :func:`convergence` -- front width vs dx: successive differences, their log-log slope and a
   Richardson-extrapolated width where the order is clean;
-* :func:`oscillon_rates` -- an e = 0 oscillon core (half a period shifted) on an axisymmetric
-  lattice, time stepped; the core radius per period and dR/dperiod.
+* :func:`oscillon_rates` / :func:`fit_radii` / :func:`core_radius` -- an e = 0 oscillon core (half a
+  period shifted) on an axisymmetric lattice, time stepped; the core radius per period, dR/dperiod
+  and R dR/dperiod;
+* :func:`figures`, :func:`oscillon_figure` -- ``validation/figures/inelastic_kink_*.png``.
 
 Run one kink (saves JSON + pickle under ``SCRATCH``): ``python -m validation.inelastic_kinks run GAMMA DX``;
 one oscillon set (R0 = 10, 20): ``python -m validation.inelastic_kinks run-oscillon GAMMA DR [PERIODS]``;
+a time-stepped proxy: ``python -m validation.inelastic_kinks stepped GAMMA DX``;
 the figures: ``python -m validation.inelastic_kinks figures``; print the tables:
 ``python -m validation.inelastic_kinks [table] [convergence] [oscillon]`` (reads the saved cases).  Timings are
 wall-clock on the shared 2-core machine, single-threaded BLAS (threadpoolctl).
@@ -36,7 +41,7 @@ from collections import Counter
 import numpy as np
 
 import tps_solver as tps
-from validation.shooting import e0_flat_state, e0_kinks, front_width, table, verify  # noqa: F401
+from validation.shooting import e0_flat_state, e0_kinks, front_width, table
 
 SCRATCH = os.environ.get("INELASTIC_SCRATCH", "/work/scratch/inelastic")
 GAMMAS = (3.9, 4.1, 4.4)
@@ -405,7 +410,8 @@ def oscillon_rates(Gamma=4.1, R0s=(10.0, 20.0), r_max=60.0, dr=1.0, periods=30, 
         rate, rate10, half_r2, n_fit = fit_radii(R, dr, r_max)
         rows.append(dict(Gamma=float(Gamma), R0=float(R0), dr=float(dr), r_max=float(r_max), method=method,
                          periods=periods, seconds=sec, status=int(run.status), radii=R.tolist(), rate=rate,
-                         rate_last10=rate10, R_dRdk=half_r2, n_fit=n_fit, R_end=float(R[-1]), sample_phase=ph, n_events=int(run.n_events)))
+                         rate_last10=rate10, R_dRdk=half_r2, n_fit=n_fit, R_end=float(R[-1]), sample_phase=ph,
+                         n_events=int(run.n_events)))
     return rows
 
 
@@ -416,7 +422,8 @@ def _flat_rows(rows):
         w = r.get("width", [float("nan")] * 2)
         out.append(dict(Gamma=r["Gamma"], dx=r["dx"], n_nodes=r["n_nodes"], converged=r["converged"],
                         residual=r["residual"], nit=r["nit"], seconds=r["seconds"], width_left=f"{w[0]:.4f}",
-                        width_right=f"{w[1]:.4f}", contacts=", ".join(f"{k}: {v}" for k, v in p.get("contacts", {}).items()),
+                        width_right=f"{w[1]:.4f}",
+                        contacts=", ".join(f"{k}: {v}" for k, v in p.get("contacts", {}).items()),
                         sticking_nodes=r.get("sticking_nodes"),
                         patterns="; ".join(f"{k} x{v}" for k, v in sorted(p.get("histogram", {}).items(),
                                                                           key=lambda kv: -kv[1])),
