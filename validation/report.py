@@ -46,9 +46,12 @@ SECTION_ORDER = (
     ("figures", "The paper's figures"),
     ("flat_sticking", "Flat orbits with sticking, touch-and-go and chatter (e -> 0)"),
     ("tps_stick", "The TPS for impact-and-stick contacts"),
+    ("inelastic_kinks", "The completely inelastic kinks (e = 0): Gamma table, refinement, oscillons"),
+    ("inelastic_fronts", "The e = 0 fronts under refinement: why there is no continuum stick TPS yet"),
     ("basins", "Basins of the bouncing ball"),
     ("integrators", "Fast integrators: point impacts and the soft contact"),
     ("shooting", "Periodic orbits of any contact pattern by shooting"),
+    ("soft_kinks", "Soft-contact kinks over lattice spacings"),
     ("continuation", "Continuation: folds and period doublings"),
     ("existence_map", "Where kinks and oscillons exist: the existence-stability map"),
 )
