@@ -543,8 +543,8 @@ def main(parts=("table", "convergence", "oscillon")):
     if "oscillon" in parts:
         orow = []
         for G in GAMMAS:
-            for dr in (1.0, 0.5):
-                p = os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}.json")
+            for dr, tag in ((1.0, ""), (0.5, ""), (1.0, "_rmax40")):
+                p = os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}{tag}.json")
                 if os.path.exists(p):
                     with open(p) as f:
                         for r in json.load(f):
@@ -553,8 +553,8 @@ def main(parts=("table", "convergence", "oscillon")):
                             r["R_every5"] = [round(v, 2) for v in R[::5]]
                             orow.append(r)
         if orow:
-            print("\n## e = 0 oscillon cores, time stepped (axisymmetric uniform lattice, r_max = 60)\n")
-            print(table(orow, ["Gamma", "dr", "R0", "method", "periods", "seconds", "rate", "rate_last10",
+            print("\n## e = 0 oscillon cores, time stepped (axisymmetric uniform Neumann lattice)\n")
+            print(table(orow, ["Gamma", "dr", "r_max", "R0", "method", "periods", "seconds", "rate", "rate_last10",
                                "R_dRdk", "n_fit", "R_end", "R_every5"]))
     return rows
 
