@@ -30,11 +30,13 @@ contact) and ``"stick"`` (capture by the sticking rule) records, as in
 contacts differs from the flat orbit's or it has a ``"stick"`` record.  The *defect* of
 period k is ``max(|w(t_k + T) - w(t_k)|, |zeta(t_k + T) - zeta(t_k)|)`` over the nodes.
 The *invasion speed* is the least-squares slope of the number of disordered nodes against
-the period number, over the periods before it first reaches 80 % of the nodes (nodes per
+the period number, up to the first period in which it reaches 80 % of the nodes (nodes per
 period; times the spacing: length per period; a kink has two fronts, so each front moves
 at half of it).
 
-Run ``python -m validation.soft_kinks [fate|shoot|bench] [--spacings 20,12,...]``.
+Run ``python -m validation.soft_kinks [fate] [shoot] [fold] [bench] [--spacings 20,12,...] [--save DIR]``
+(default: all four parts on :data:`DEFAULT_SPACINGS`, a few minutes; the fine spacings of
+:data:`SPACINGS` take 10-20 minutes each, mostly in the shooting, budgeted by ``--shoot-budget``).
 Timings use ``threadpoolctl.threadpool_limits(1)`` and report wall and process CPU time
 (the machine is shared).
 """
@@ -43,18 +45,22 @@ import contextlib
 import json
 import math
 import os
+import sys
 import time
 
 import numpy as np
 
 import tps_solver as tps
 
-__all__ = ["GAMMA", "E", "M", "CUTOFF", "SPACINGS", "kink_lattice", "kink_start", "flat_count", "period_record",
+__all__ = ["GAMMA", "E", "M", "CUTOFF", "SPACINGS", "DEFAULT_SPACINGS", "BENCH_CASES", "table", "fate_table",
+           "summary_rows", "compact_table", "kink_lattice", "kink_start", "flat_count", "period_record",
            "fate", "invasion_speed", "shoot", "spacing_continuation", "decay_check", "benchmark", "main"]
 
 GAMMA, E, M, CUTOFF = 2.5, 0.45, 2, 0.3
 #: Lattice spacings of the study (viscous lengths).
 SPACINGS = (20.0, 12.0, 10.0, 5.0, 1.0, 0.2, 0.1)
+#: Spacings of ``main()`` without arguments (the 12-node lattices around the fold; a few minutes).
+DEFAULT_SPACINGS = (20.0, 12.0, 11.5, 11.0, 10.5, 10.0)
 #: Nodes for the coarse spacings (>= 5) and the length of the fine ones.
 COARSE_NODES, FINE_LENGTH = 12, 48.0
 
@@ -168,7 +174,10 @@ def period_record(k, w, z, run, lattice, ref, fo, t):
 
 
 def invasion_speed(counts, n_nodes, fraction=0.8):
-    """Least-squares slope of the disordered-node count per period before it reaches ``fraction``.
+    """Least-squares slope of the disordered-node count per period, up to the first period at ``fraction``.
+
+    The periods after the first one in which the count reaches ``fraction * n_nodes`` (the
+    lattice is filled) are left out.
 
     Returns
     -------
@@ -177,7 +186,7 @@ def invasion_speed(counts, n_nodes, fraction=0.8):
 
     Examples
     --------
-    >>> invasion_speed([4, 14, 24, 34, 49], 49)
+    >>> round(invasion_speed([4, 14, 24, 34, 44, 49, 49], 49), 9)
     10.0
     """
     c = np.asarray(counts, float)
@@ -341,8 +350,14 @@ def decay_check(orb, periods=8, size=1e-4, seed=0):
     return dict(defects=d.tolist(), ratio=ratio, abs_mu1=float(abs(orb.multipliers[0])))
 
 
+#: Cases of the benchmark: 200 nodes at spacing 20 (the default grid's) from 10 and from 3 time-stepped
+#: periods, with the leading multipliers, and at spacing 12 (closer to the fold).
+BENCH_CASES = (dict(dx=20.0, periods=10), dict(dx=20.0, periods=3), dict(dx=20.0, periods=10, multipliers=True),
+               dict(dx=12.0, periods=10), dict(dx=12.0, periods=10, section="fixed"))
+
+
 def benchmark(n_nodes=200, dx=20.0, periods=10, tol=1e-10, max_iter=20, krylov_dim=None, multipliers=False,
-              budget=None):
+              budget=None, section="auto"):
     """Shooting a ``n_nodes``-node soft kink orbit to ``tol``: wall and CPU time, Newton steps.
 
     The guess is the kink start after ``periods`` time-stepped periods (timed separately).
@@ -355,7 +370,7 @@ def benchmark(n_nodes=200, dx=20.0, periods=10, tol=1e-10, max_iter=20, krylov_d
     """
     fr = fate(dx, periods=periods, n_nodes=n_nodes, settle_tol=0.0)
     row = shoot(dx, fr["w"], fr["zeta"], fr["t"], n_nodes=n_nodes, tol=tol, max_iter=max_iter,
-                krylov_dim=krylov_dim, multipliers=multipliers, budget=budget)
+                krylov_dim=krylov_dim, multipliers=multipliers, budget=budget, n_multipliers=4, section=section)
     row.update(step_wall=fr["seconds"], step_cpu=fr["cpu"], step_periods=fr["periods_run"],
                guess_defect=fr["records"][-1].get("defect"), verdict=fr["verdict"])
     return row
@@ -366,7 +381,7 @@ def _fmt(v):
     if v is None:
         return "—"
     if isinstance(v, float):
-        return f"{v:.3g}" if abs(v) >= 1e-3 or v == 0 else f"{v:.2e}"
+        return f"{v:.4g}" if abs(v) >= 1e-3 or v == 0 else f"{v:.2e}"
     if isinstance(v, (list, tuple)):
         return ", ".join(_fmt(x) for x in v)
     return str(v)
@@ -386,6 +401,49 @@ def fate_table(fr):
                                  "disordered", "sticking", "phase_a", "events"])
 
 
+def summary_rows(folder):
+    """Summary rows (one per spacing) from the JSON results of ``main(["fate", "shoot", "--save", folder])``."""
+    rows = []
+    for name in sorted(os.listdir(folder)):
+        if not (name.startswith("fate_dx") and name.endswith(".json")):
+            continue
+        with open(os.path.join(folder, name)) as fh:
+            fr = json.load(fh)
+        recs = [r for r in fr["records"] if "defect" in r]
+        row = dict(dx=fr["dx"], n_nodes=fr["n_nodes"], length=fr["length"], periods=len(recs),
+                   verdict=fr["verdict"], defect_last=recs[-1]["defect"],
+                   disordered_last=recs[-1]["disordered"], contacts_last=f"{recs[-1]['contacts_min']}-"
+                   f"{recs[-1]['contacts_max']} (median {recs[-1]['contacts_median']:g})",
+                   speed_nodes=fr["speed_nodes"], speed_length=fr["speed_length"],
+                   step_wall=fr["seconds"], step_cpu=fr["cpu"])
+        sp = os.path.join(folder, f"shoot_dx{fr['dx']:g}.json")
+        if os.path.exists(sp):
+            with open(sp) as fh:
+                sr = json.load(fh)
+            row.update(converged=sr["converged"], status=sr["status"], nit=sr["nit"], residual=sr["residual"],
+                       shoot_wall=sr["seconds"], shoot_cpu=sr["cpu"], shoot_contacts=sr["contacts"],
+                       abs_mu=sr["abs_mu"][:3], history=sr["history"], message=sr["message"])
+        rows.append(row)
+    rows.sort(key=lambda r: -r["dx"])
+    return rows
+
+
+def compact_table(folder, spacings, periods=(1, 2, 3, 4, 5, 6, 8, 10, 12, 15, 20)):
+    """Markdown table: per period and spacing "defect / disordered nodes / max contacts"."""
+    fates = {}
+    for dx in spacings:
+        with open(os.path.join(folder, f"fate_dx{dx:g}.json")) as fh:
+            fates[dx] = {r["period"]: r for r in json.load(fh)["records"] if "defect" in r}
+    lines = ["| period | " + " | ".join(f"dx = {dx:g}" for dx in spacings) + " |", "|" + "---|" * (len(spacings) + 1)]
+    for k in periods:
+        cells = []
+        for dx in spacings:
+            r = fates[dx].get(k)
+            cells.append("—" if r is None else f"{_fmt(r['defect'])} / {r['disordered']} / {r['contacts_max']}")
+        lines.append(f"| {k} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _save(obj, name, folder):
     if folder is None:
         return
@@ -396,15 +454,21 @@ def _save(obj, name, folder):
 
 
 def main(argv=None):
-    """Print the measured tables (markdown); results are also saved as JSON under ``--save``."""
+    """Print the measured tables (markdown); results are also saved as JSON under ``--save``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments (module docstring); None: the defaults.
+    """
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("parts", nargs="*", default=["fate", "shoot", "bench"])
-    p.add_argument("--spacings", default=",".join(f"{s:g}" for s in SPACINGS))
+    p.add_argument("parts", nargs="*", default=["fate", "shoot", "fold", "bench"])
+    p.add_argument("--spacings", default=",".join(f"{s:g}" for s in DEFAULT_SPACINGS))
     p.add_argument("--periods", type=int, default=20)
     p.add_argument("--tol", type=float, default=1e-10)
     p.add_argument("--shoot-budget", type=float, default=900.0)
     p.add_argument("--save", default=None, help="folder for JSON results")
-    args = p.parse_args(argv)
+    args = p.parse_args([] if argv is None else argv)
     spacings = [float(s) for s in args.spacings.split(",")]
     out = {}
     with _limits():
@@ -425,15 +489,42 @@ def main(argv=None):
                                           "seconds", "cpu", "contacts", "sticking_nodes", "abs_mu"]))
                 print(f"\n- message: {sr['message']}; history {_fmt(sr['history'])}; steps {_fmt(sr['steps'])}",
                       flush=True)
+                if sr["converged"] and sr["abs_mu"]:
+                    stable = sr["abs_mu"][0] < 1.0
+                    dc = decay_check(sr["orbit"], periods=8 if stable else 5, size=1e-6 if stable else 1e-10)
+                    sr["decay"] = dc
+                    _save(dict(dx=dx, **dc), f"decay_dx{dx:g}", args.save)
+                    print(f"- time stepping from the orbit + random perturbation: distance per period "
+                          f"{_fmt(dc['defects'])}; ratio {dc['ratio']:.4g} against |mu_1| = {dc['abs_mu1']:.4g}",
+                          flush=True)
                 out[dx] = (fr, sr)
+        if "fold" in args.parts:
+            fr = fate(12.0, periods=args.periods)
+            base = shoot(12.0, fr["w"], fr["zeta"], fr["t"], tol=args.tol)
+            rows = [base]
+            for seq in ((12.5, 13.0, 14.0, 16.0), (11.95, 11.9)):
+                rows += spacing_continuation(base["orbit"], seq, tol=args.tol)
+            _save(dict(rows=[{k: v for k, v in r.items() if k != "orbit"} for r in rows]), "fold", args.save)
+            print("\n" + table(rows, ["dx", "converged", "status", "nit", "residual", "maps", "seconds", "contacts",
+                                      "abs_mu"]))
+            out["fold"] = rows
         if "bench" in args.parts:
-            br = benchmark()
-            _save(br, "bench", args.save)
-            print("\n" + table([br], ["n_nodes", "dx", "step_wall", "step_cpu", "guess_defect", "converged", "nit",
-                                      "residual", "maps", "seconds", "cpu", "contacts"]))
-            print(f"\n- message: {br['message']}; history {_fmt(br['history'])}")
+            rows = []
+            for case in BENCH_CASES:
+                br = benchmark(**case)
+                br["multipliers"] = case.get("multipliers", False)
+                br["section"] = case.get("section", "auto")
+                rows.append(br)
+                _save(br, "bench_" + "_".join(f"{k}{v}" for k, v in case.items()), args.save)
+            print("\n" + table(rows, ["n_nodes", "dx", "step_periods", "step_wall", "step_cpu", "guess_defect",
+                                      "multipliers", "section", "converged", "nit", "residual", "maps", "seconds",
+                                      "cpu", "contacts", "abs_mu"]))
+            for br in rows:
+                print(f"\n- dx = {br['dx']:g}, {br['step_periods']} periods: {br['message']}; "
+                      f"history {_fmt(br['history'])}")
+            out["bench"] = rows
     return out
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])
