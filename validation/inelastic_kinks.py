@@ -543,7 +543,7 @@ def main(parts=("table", "convergence", "oscillon")):
     if "oscillon" in parts:
         orow = []
         for G in GAMMAS:
-            for dr, tag in ((1.0, ""), (0.5, ""), (1.0, "_rmax40")):
+            for dr, tag in ((1.0, ""), (0.5, ""), (1.0, "_rmax40"), (1.0, "_point")):
                 p = os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}{tag}.json")
                 if os.path.exists(p):
                     with open(p) as f:
