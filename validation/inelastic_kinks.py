@@ -24,7 +24,8 @@ Functions (each returns rows of measured numbers; ``main()`` prints markdown tab
 * :func:`figures`, :func:`oscillon_figure` -- ``validation/figures/inelastic_kink_*.png``.
 
 Run one kink (saves JSON + pickle under ``SCRATCH``): ``python -m validation.inelastic_kinks run GAMMA DX``;
-one oscillon set (R0 = 10, 20): ``python -m validation.inelastic_kinks run-oscillon GAMMA DR [PERIODS]``;
+one oscillon set (R0 = 10, 20; R0 = 20 only with another R_MAX or METHOD):
+``python -m validation.inelastic_kinks run-oscillon GAMMA DR [PERIODS [R_MAX [METHOD]]]``;
 a time-stepped proxy: ``python -m validation.inelastic_kinks stepped GAMMA DX``;
 the figures: ``python -m validation.inelastic_kinks figures``; print the tables:
 ``python -m validation.inelastic_kinks [table] [convergence] [oscillon]`` (reads the saved cases).  Timings are
@@ -562,10 +563,15 @@ def main(parts=("table", "convergence", "oscillon")):
 if __name__ == "__main__":
     if sys.argv[1:2] == ["run-oscillon"]:
         G, dr = float(sys.argv[2]), float(sys.argv[3])
+        periods = int(sys.argv[4]) if len(sys.argv) > 4 else 30
+        r_max = float(sys.argv[5]) if len(sys.argv) > 5 else 60.0
+        method = sys.argv[6] if len(sys.argv) > 6 else "exact"
+        R0s = (10.0, 20.0) if r_max == 60.0 and method == "exact" else (20.0,)
+        tag = (f"_rmax{r_max:g}" if r_max != 60.0 else "") + (f"_{method}" if method != "exact" else "")
         with _limits():
-            rows = oscillon_rates(G, dr=dr, periods=int(sys.argv[4]) if len(sys.argv) > 4 else 30)
+            rows = oscillon_rates(G, R0s=R0s, dr=dr, periods=periods, r_max=r_max, method=method)
         os.makedirs(SCRATCH, exist_ok=True)
-        with open(os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}.json"), "w") as f:
+        with open(os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}{tag}.json"), "w") as f:
             json.dump(rows, f, indent=1)
         for r in rows:
             print(r["R0"], r["seconds"], r["rate"], r["rate_last10"], r["R_dRdk"], np.round(r["radii"], 2).tolist())
