@@ -328,3 +328,15 @@ def test_soft_flat_multipliers_match_the_closed_form_monodromy():
     rows = soft_flat_multipliers()
     assert [r["kind"] for r in rows] == ["full period map", "all (exact)"]
     assert max(r["error"] for r in rows) <= 1e-8
+
+
+def test_orbit_sampling_accepts_repeated_and_unsorted_times():
+    """``height``/``velocity`` at times with repeats (and one period apart) return one row per time."""
+    coarse = tps.Lattice.planar(n_nodes=8, length=140.0)
+    cyc = tps.solve_lattice_cycle(coarse, Gamma=2.5, M=2, e=0.45, t0=None)
+    orb = tps.find_periodic_orbit(coarse, Gamma=2.5, M=2, e=0.45, guess=cyc, multipliers=False)
+    t = orb.t_start + np.array([3.0, 1.0, 3.0, 1.0 + orb.period])
+    z = orb.height(t)
+    assert z.shape == (4, 8)
+    assert np.array_equal(z[0], z[2]) and np.max(np.abs(z[1] - z[3])) < 1e-12
+    assert np.max(np.abs(orb.velocity(t[:2])[0] - orb.velocity(t[:1])[0])) == 0.0

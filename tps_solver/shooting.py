@@ -174,17 +174,16 @@ class ShootingOrbit(PeriodicOrbit):
 
         t = np.atleast_1d(np.asarray(t, dtype=float))
         tau = np.mod(t - self.t_start, self.period)
-        order = np.argsort(tau, kind="stable")
+        # one sample per distinct phase (simulate wants strictly increasing output times)
+        phases, where = np.unique(tau, return_inverse=True)
         kw = dict(self._sim_kw)
         if self.method != "soft":
             kw["stuck0"] = self.stuck0
         run = simulate(self.lattice, self.Gamma, self.e, self.w0, self.zeta0, t_start=self.t_start,
                        t_end=self.t_start + self.period, method=self.method,
-                       t_eval=self.t_start + tau[order], **kw)
-        w = np.empty((t.size, self.lattice.n_nodes))
-        z = np.empty_like(w)
-        w[order], z[order] = run.w_eval, run.zeta_eval
-        return w, z
+                       t_eval=self.t_start + phases, **kw)
+        where = where.reshape(-1)
+        return run.w_eval[where], run.zeta_eval[where]
 
     def velocity(self, t):
         """Node velocities on the orbit at times ``t`` (by time stepping from ``t_start``).

@@ -44,7 +44,9 @@ import numpy as np
 import tps_solver as tps
 from validation.shooting import e0_flat_state, e0_kinks, front_width, table
 
-SCRATCH = os.environ.get("INELASTIC_SCRATCH", "/work/scratch/inelastic")
+#: where ``run`` saves its rows (JSON, kept in the repository) and orbits (pickles, not kept: rerun
+#: ``run GAMMA DX`` before ``figures``)
+SCRATCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "inelastic_kinks")
 GAMMAS = (3.9, 4.1, 4.4)
 DXS = (2.0, 1.0, 0.5)
 #: stuck time (units 1/omega) below which a stick is "brief" (``s`` in the pattern strings)
@@ -278,7 +280,8 @@ def load_orbit(Gamma, dx):
 
 def gamma_table(gammas=GAMMAS, dxs=DXS + (0.25,)):
     """Rows of the saved cases (the ones that exist), in (Gamma, dx) order; the contact pattern
-    is re-derived from the pickled orbit (:func:`contact_pattern` with ``brief = BRIEF``)."""
+    is re-derived from the pickled orbit where one is saved (:func:`contact_pattern` with
+    ``brief = BRIEF``), else taken from the row (the repository keeps the rows, not the orbits)."""
     rows = []
     for G in gammas:
         for dx in dxs:
