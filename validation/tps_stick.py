@@ -346,7 +346,7 @@ def continuation(dx=2.0, Gamma=4.1, targets=(4.101, 4.11), row=None):
     for G2 in targets:
         sol = ts.solve_stick_lattice(row["lattice"], G2, 2, 0.0, pattern=pattern, tol=1e-11, max_iter=30,
                                      refresh=0)
-        r = dict(Gamma_start=Gamma, Gamma=G2, converged=sol.converged, nit=sol.nit,
+        r = dict(Gamma_start=f"{Gamma:g}", Gamma=f"{G2:g}", converged=sol.converged, nit=sol.nit,
                  history=", ".join(f"{h:.1e}" for h in sol.residual_history), solve_seconds=sol.solve_time,
                  time_shift=float(np.max(_pdist(sol.pattern.t, pattern.t, T))), all_pass=sol.checks.all_pass)
         if sol.converged:
