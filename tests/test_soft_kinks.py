@@ -80,3 +80,16 @@ def test_spacing_5_invades():
     assert fr["verdict"] == "invades"
     assert 0.5 < fr["speed_nodes"] < 2.0
     assert fr["records"][-1]["contacts_min"] >= 2
+
+
+@pytest.mark.slow
+def test_unstable_two_contact_kink_below_the_fold():
+    """Spacing 11.5 (below the single-contact fold at about 11.93): from the state after 9 time-stepped
+    periods Newton converges to a periodic kink with a two-contact front node whose leading multiplier
+    (exact monodromy) is the growth rate of a small perturbation measured by time stepping."""
+    rows = sk.orbit_search(11.5, periods=9, every=9)
+    r = rows[0]
+    assert r["converged"] and r["residual"] < 1e-10
+    assert "2: " in r["contacts"]
+    assert r["abs_mu"][0] > 5.0
+    assert r["growth"] == pytest.approx(r["abs_mu"][0], rel=0.02)

@@ -18,7 +18,10 @@ Functions (each returns rows of measured numbers; ``main()`` prints markdown tab
   invading front the invasion speed;
 * :func:`shoot` -- :func:`tps_solver.find_periodic_orbit` from the time-stepped state:
   converged, residual, Newton steps, seconds, contacts per node, leading multipliers;
-* :func:`decay_check` -- on a settled kink: the time-stepped defect d_k against the leading
+* :func:`spacing_continuation` -- follow a converged orbit to other spacings (the fold);
+* :func:`orbit_search` -- shoot from the time-stepped state every few periods and collect the
+  (unstable) periodic kinks Newton reaches;
+* :func:`decay_check` -- on a converged orbit: the time-stepped defect d_k against the leading
   multiplier of the shooting orbit (d_k / d_{k-1} -> |mu_1|);
 * :func:`benchmark` -- wall and CPU time, Newton steps to max|P(x) - x| <= 1e-10 for a
   200-node soft kink orbit.
@@ -34,8 +37,9 @@ the period number, up to the first period in which it reaches 80 % of the nodes 
 period; times the spacing: length per period; a kink has two fronts, so each front moves
 at half of it).
 
-Run ``python -m validation.soft_kinks [fate] [shoot] [fold] [bench] [--spacings 20,12,...] [--save DIR]``
-(default: all four parts on :data:`DEFAULT_SPACINGS`, a few minutes; the fine spacings of
+Run ``python -m validation.soft_kinks [fate] [shoot] [fold] [bench] [search] [--spacings 20,12,...] [--save DIR]``
+(default: fate, shoot, fold and bench on :data:`DEFAULT_SPACINGS`, a few minutes; ``search``:
+:func:`orbit_search` per spacing; the fine spacings of
 :data:`SPACINGS` take 10-20 minutes each, mostly in the shooting, budgeted by ``--shoot-budget``).
 Timings use ``threadpoolctl.threadpool_limits(1)`` and report wall and process CPU time
 (the machine is shared).
@@ -54,7 +58,8 @@ import tps_solver as tps
 
 __all__ = ["GAMMA", "E", "M", "CUTOFF", "SPACINGS", "DEFAULT_SPACINGS", "BENCH_CASES", "table", "fate_table",
            "summary_rows", "compact_table", "kink_lattice", "kink_start", "flat_count", "period_record",
-           "fate", "invasion_speed", "shoot", "spacing_continuation", "decay_check", "benchmark", "main"]
+           "fate", "invasion_speed", "shoot", "spacing_continuation", "orbit_search", "decay_check", "benchmark",
+           "main"]
 
 GAMMA, E, M, CUTOFF = 2.5, 0.45, 2, 0.3
 #: Lattice spacings of the study (viscous lengths).
@@ -328,6 +333,41 @@ def spacing_continuation(orbit, dxs, max_iter=20, tol=1e-10, budget=None, callba
     return rows
 
 
+def orbit_search(dx, periods=30, every=3, n_nodes=None, max_iter=12, tol=1e-10, budget=None):
+    """Shoot from the time-stepped kink every ``every`` periods; collect the distinct periodic orbits found.
+
+    Where time stepping keeps a few disordered front nodes, the state wanders near unstable
+    periodic kinks; this shows which ones Newton reaches from where.
+
+    Returns
+    -------
+    list of dict
+        One row per attempt: ``dx, period, converged, nit, residual, contacts, abs_mu`` (leading 3),
+        ``seconds``, ``growth`` (per-period growth of a 1e-10 perturbation by time stepping,
+        :func:`decay_check`, converged orbits only).
+    """
+    lat = kink_lattice(dx, n_nodes)
+    w, z, t, fo = kink_start(lat)
+    rows = []
+    start = time.perf_counter()
+    for k in range(1, periods + 1):
+        run = tps.simulate(lat, GAMMA, E, w, z, t_start=t, t_end=t + fo.period, method="soft", cutoff=CUTOFF)
+        w, z, t = run.w.copy(), run.zeta.copy(), t + fo.period
+        if k % every:
+            continue
+        if budget is not None and time.perf_counter() - start > budget:
+            break
+        r = shoot(dx, w, z, t, n_nodes=lat.n_nodes, tol=tol, max_iter=max_iter)
+        row = dict(dx=float(dx), period=k, converged=r["converged"], nit=r["nit"], residual=r["residual"],
+                   contacts=r["contacts"], abs_mu=r["abs_mu"][:3], seconds=r["seconds"], growth=None)
+        if r["converged"] and r["abs_mu"]:
+            unstable = r["abs_mu"][0] > 1.0
+            row["growth"] = decay_check(r["orbit"], periods=5 if unstable else 8,
+                                        size=1e-10 if unstable else 1e-6)["ratio"]
+        rows.append(row)
+    return rows
+
+
 def decay_check(orb, periods=8, size=1e-4, seed=0):
     """Time-step the orbit's section state plus a random perturbation; defects against |mu_1|^k.
 
@@ -498,6 +538,14 @@ def main(argv=None):
                           f"{_fmt(dc['defects'])}; ratio {dc['ratio']:.4g} against |mu_1| = {dc['abs_mu1']:.4g}",
                           flush=True)
                 out[dx] = (fr, sr)
+        if "search" in args.parts:
+            rows = []
+            for dx in spacings:
+                rows += orbit_search(dx)
+            _save(dict(rows=rows), "search", args.save)
+            print("\n" + table(rows, ["dx", "period", "converged", "nit", "residual", "contacts", "abs_mu", "growth",
+                                      "seconds"]), flush=True)
+            out["search"] = rows
         if "fold" in args.parts:
             fr = fate(12.0, periods=args.periods)
             base = shoot(12.0, fr["w"], fr["zeta"], fr["t"], tol=args.tol)
