@@ -624,8 +624,21 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
 
     try:
         if section == "auto":
-            w, z, stuck, t_s, clearance, used = _choose_section(factory, w, z, stuck, t_g, T, method)
-            n_maps += used
+            # the section run samples the period on a grid; should a grid time fall on a switch to
+            # round-off and the contact search fail there, try a second grid, then keep the guess time
+            for n_grid in (512, 509, None):
+                if n_grid is None:
+                    notes.append("section='auto' failed on two sampling grids; the guess time is the section")
+                    break
+                try:
+                    w, z, stuck, t_s, clearance, used = _choose_section(factory, w, z, stuck, t_g, T, method,
+                                                                        n_grid=n_grid)
+                    n_maps += used
+                    break
+                except _MapError as exc:
+                    n_maps += 1
+                    if exc.status != 3:
+                        raise
     except _MapError as exc:
         status, message = exc.status, exc.message + " (while choosing the section from the guess)"
         return _finish(result(), notes, start_clock)
