@@ -115,13 +115,13 @@ def fig2_fda_kink(fl, cfg, directory):
                                        "from a converged FDA periodic orbit, M = 2", paths=[],
                  solver=f"FDA exact, pinned planar lattice, {lat.n_nodes} nodes, dx = {lat.spacing:.3g}, "
                         f"{cfg['kink_periods']} periods then shooting",
-                 run_status=run.message, n_events=int(run.n_events), defect=None)
+                 run_status=run.message, n_events=int(run.n_events), residual=None)
     if not run.success:
         entry.update(made=False, reason=f"the FDA run failed: {run.message}")
         return entry
     orb = find_periodic_orbit(lat, Gamma=fl.Gamma, M=fl.M, e=fl.e, guess=run, multipliers=False,
                               max_iter=cfg.get("kink_newton", 8), krylov_dim=40)
-    entry.update(defect=float(orb.residual), solver=entry["solver"] + f": {orb.message}")
+    entry.update(residual=float(orb.residual), solver=entry["solver"] + f": {orb.message}")
     if not orb.converged:
         entry.update(made=False, reason=f"no periodic orbit found near the time-stepped kink: {orb.message}")
         return entry
@@ -272,7 +272,10 @@ def render(entries, command="python -m validation.figures"):
     seen = {}
     for e in entries:
         notes = [e["reason"]] if e["reason"] else []
-        if e.get("defect") is not None:
+        if e.get("residual") is not None:
+            notes.append(f"shooting residual max|P(x) - x| = {e['residual']:.2g}, {e.get('n_events')} events in the "
+                         f"settling run")
+        elif e.get("defect") is not None:
             notes.append(f"periodicity defect of the last period {e['defect']:.2g}, {e.get('n_events')} events "
                          f"in the run, {e.get('stuck_at_end')} node(s) stuck at its end")
         note = "; ".join(notes)
