@@ -33,8 +33,6 @@ message says so.
 :func:`interface_position` where a profile crosses a level (the radius of an
 oscillon's core).
 """
-import math
-
 import numpy as np
 
 from ._checks import check_choice, check_int, check_nonnegative, check_positive

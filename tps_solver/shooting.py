@@ -670,22 +670,21 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
                 break
             scale = max(1.0, float(np.max(np.abs(x), initial=0.0)))
 
-            def jv(v, x=x, Px=Px, scale=scale):
-                nv = float(np.max(np.abs(v)))
-                if nv == 0.0:
-                    return np.zeros_like(v)
-                h = fd_step * scale / nv
-                if method != "soft":
-                    zt = x[m:] + h * v[m:]
-                    if np.any(zt < 0.0):
-                        h = -h
-                return (pm(x + h * v)[0] - Px) / h - v
-
             if method == "soft":        # the exact product (tps_solver.soft_monodromy), no differences
                 lin = SoftMonodromy.from_run(pm.run(x), *pm.state(x), pm.t_s)
 
                 def jv(v, lin=lin):
                     return lin.jv(v) - v
+            else:
+                def jv(v, x=x, Px=Px, scale=scale):
+                    nv = float(np.max(np.abs(v)))
+                    if nv == 0.0:
+                        return np.zeros_like(v)
+                    h = fd_step * scale / nv
+                    zt = x[m:] + h * v[m:]
+                    if np.any(zt < 0.0):
+                        h = -h
+                    return (pm(x + h * v)[0] - Px) / h - v
 
             d, rel, used = _gmres(jv, -F, gmres_rtol, krylov_dim)
             f0 = float(np.linalg.norm(F))

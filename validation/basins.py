@@ -29,20 +29,12 @@ import time
 import numpy as np
 
 import tps_solver as tps
+from validation.report import one_blas_thread
 from tps_solver.basins import ball_cycle, flat_basins
 
 #: (Gamma, e) of the study, M = 2.
 CASES = ((2.5, 0.45), (4.1, 0.0), (4.1, 0.1), (4.4, 0.1))
 CUTOFF = 0.3
-
-
-def _threads1():
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:                      # pragma: no cover - optional
-        import contextlib
-        return contextlib.nullcontext()
-    return threadpool_limits(1)
 
 
 def _summary(res, seconds):
@@ -77,7 +69,7 @@ def _model_name(res):
 def basin_study(cases=CASES, n_samples=64, seed=0, soft=True):
     """Attractor fractions for every case and model; returns a list of row dicts (one per attractor)."""
     rows = []
-    with _threads1():
+    with one_blas_thread():
         for G, e in cases:
             runs = [dict(model="point")]
             if soft and e > 0:
@@ -92,7 +84,7 @@ def basin_study(cases=CASES, n_samples=64, seed=0, soft=True):
 def cutoff_scan(Gamma=2.5, e=0.45, cutoffs=(0.3, 0.2, 0.1, 0.03), n_samples=64, seed=0):
     """Soft contact (with and without the sticking rule) against the cut-off: rows per attractor."""
     rows = []
-    with _threads1():
+    with one_blas_thread():
         for ell in cutoffs:
             for st in (False, True):
                 t = time.perf_counter()
@@ -105,7 +97,7 @@ def cutoff_scan(Gamma=2.5, e=0.45, cutoffs=(0.3, 0.2, 0.1, 0.03), n_samples=64, 
 def convergence_study(Gamma=2.5, e=0.45, sizes=(16, 64, 256, 1024), seed=0, label="f/2"):
     """Fraction of ``label`` against the number of samples: rows with n, fraction, stderr, interval."""
     rows = []
-    with _threads1():
+    with one_blas_thread():
         big = flat_basins(Gamma, e, n_samples=max(sizes), seed=seed)
     names = [a.label for a in big.attractors]
     idx = names.index(label) if label in names else None
@@ -119,7 +111,7 @@ def convergence_study(Gamma=2.5, e=0.45, sizes=(16, 64, 256, 1024), seed=0, labe
 def cross_check(cases=((2.5, 0.45), (4.4, 0.1)), n_samples=12, seed=0):
     """Labels from integrator="simulate" against the closed form on the same samples."""
     rows = []
-    with _threads1():
+    with one_blas_thread():
         for G, e in cases:
             t = time.perf_counter()
             a = flat_basins(G, e, n_samples=n_samples, seed=seed, periods=100)
@@ -141,7 +133,7 @@ def cross_check(cases=((2.5, 0.45), (4.4, 0.1)), n_samples=12, seed=0):
 def cost_study(n_cycles=20):
     """Seconds per forcing cycle of one node: closed form and simulate, point and soft (one start each)."""
     rows = []
-    with _threads1():
+    with one_blas_thread():
         for model, cutoff, cyc in (("point", None, n_cycles), ("soft", CUTOFF, 3)):
             for integ in ("closed_form", "simulate"):
                 k = cyc if not (model == "soft" and integ == "closed_form") else n_cycles

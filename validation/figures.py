@@ -20,7 +20,6 @@ PNGs under ``validation/figures/`` and ``validation/sections/figures.md``.
 """
 import math
 import os
-import sys
 
 import numpy as np
 
@@ -39,8 +38,6 @@ FULL = dict(Gamma=2.5, e=0.45, M=2, tps_N=30, tps_nodes=120, tps_r_max=12.0,
 
 
 def _pyplot():
-    import matplotlib
-
     import matplotlib.pyplot as plt
 
     return plt

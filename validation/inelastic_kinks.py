@@ -42,6 +42,7 @@ from collections import Counter
 import numpy as np
 
 import tps_solver as tps
+from validation.report import one_blas_thread, phase_distance
 from validation.shooting import e0_flat_state, e0_kinks, front_width, table
 
 #: where ``run`` saves its rows (JSON, kept in the repository) and orbits (pickles, not kept: rerun
@@ -51,19 +52,6 @@ GAMMAS = (3.9, 4.1, 4.4)
 DXS = (2.0, 1.0, 0.5)
 #: stuck time (units 1/omega) below which a stick is "brief" (``s`` in the pattern strings)
 BRIEF = 1e-3
-
-
-def _limits():
-    try:
-        from threadpoolctl import threadpool_limits
-        return threadpool_limits(1)
-    except ImportError:               # pragma: no cover - optional
-        import contextlib
-        return contextlib.nullcontext()
-
-
-def _pdist(a, b, T):
-    return np.abs(np.mod(np.asarray(a, float) - np.asarray(b, float) + 0.5 * T, T) - 0.5 * T)
 
 
 def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9, sticking_intervals=None, brief=None):
@@ -141,7 +129,7 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9, stic
                 toks.append("s" if (brief is not None and d is not None and d < brief) else "S")
             else:
                 nb = landing & ((node == j - 1) | (node == j + 1))
-                trig = bool(nb.any() and np.min(_pdist(t[nb], t[i], T)) < trigger_tol)
+                trig = bool(nb.any() and np.min(phase_distance(t[nb], t[i], T)) < trigger_tol)
                 toks.append("L*" if trig else "L")
                 if trig:
                     n_trig += 1
@@ -259,7 +247,7 @@ def run(Gamma, dx, **kw):
     def cb(i, res):
         print(f"    G={Gamma:g} dx={dx:g} Newton step {i}: residual {res:.3g}", flush=True)
 
-    with _limits():
+    with one_blas_thread():
         row = kink_row(Gamma, dx, callback=cb, **kw)
     orb = row.pop("orbit")
     with open(_path(Gamma, dx, "pkl"), "wb") as f:
@@ -571,7 +559,7 @@ if __name__ == "__main__":
         method = sys.argv[6] if len(sys.argv) > 6 else "exact"
         R0s = (10.0, 20.0) if r_max == 60.0 and method == "exact" else (20.0,)
         tag = (f"_rmax{r_max:g}" if r_max != 60.0 else "") + (f"_{method}" if method != "exact" else "")
-        with _limits():
+        with one_blas_thread():
             rows = oscillon_rates(G, R0s=R0s, dr=dr, periods=periods, r_max=r_max, method=method)
         os.makedirs(SCRATCH, exist_ok=True)
         with open(os.path.join(SCRATCH, f"oscillon_G{G:g}_dr{dr:g}{tag}.json"), "w") as f:
@@ -584,7 +572,7 @@ if __name__ == "__main__":
         print(row.get("pattern", {}).get("histogram"))
     elif sys.argv[1:2] == ["stepped"]:
         G, dx = float(sys.argv[2]), float(sys.argv[3])
-        with _limits():
+        with one_blas_thread():
             row = stepped_widths(G, dx)
         with open(os.path.join(SCRATCH, f"stepped_G{G:g}_dx{dx:g}.json"), "w") as f:
             json.dump(row, f, indent=1)

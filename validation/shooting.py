@@ -20,21 +20,9 @@ import time
 import numpy as np
 
 import tps_solver as tps
+from validation.report import one_blas_thread, phase_distance
 from tps_solver.fda import kink_state
 from tps_solver.shooting import find_periodic_orbit
-
-
-def _limits():
-    try:
-        from threadpoolctl import threadpool_limits
-        return threadpool_limits(1)
-    except ImportError:               # pragma: no cover - optional
-        import contextlib
-        return contextlib.nullcontext()
-
-
-def _pdist(a, b, T):
-    return np.abs(np.mod(np.asarray(a) - np.asarray(b) + 0.5 * T, T) - 0.5 * T)
 
 
 def verify(orb, periods=10):
@@ -75,7 +63,7 @@ def coarse_cycle():
         tc = np.array([c[0] for c in orb.contact_times])
         rows.append(dict(orbit=orb, guess=label, converged=orb.converged, nit=orb.nit,
                          residual=orb.residual, maps=orb.n_period_maps, seconds=sec,
-                         tc_error=float(np.max(_pdist(tc, cyc.tc, orb.period))),
+                         tc_error=float(np.max(phase_distance(tc, cyc.tc, orb.period))),
                          mu1=complex(orb.multipliers[0]), abs_mu1=float(abs(orb.multipliers[0]))))
     chk = tps.check_stability(cyc, periods=10, jacobian=True)
     mu_chk = chk.multipliers
@@ -275,7 +263,7 @@ def _progress(i, r):
 
 def main(parts=("coarse", "soft", "e0", "paper")):
     """Print the measured tables (markdown)."""
-    with _limits():
+    with one_blas_thread():
         if "soft" in parts:
             print("\n## Soft contact: multipliers of a flat lattice against the closed-form monodromy\n")
             print(table(soft_flat_multipliers(), ["case", "kind", "error", "seconds"]))

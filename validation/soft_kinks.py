@@ -45,7 +45,6 @@ Timings use ``threadpoolctl.threadpool_limits(1)`` and report wall and process C
 (the machine is shared).
 """
 import argparse
-import contextlib
 import json
 import math
 import os
@@ -55,6 +54,7 @@ import time
 import numpy as np
 
 import tps_solver as tps
+from validation.report import one_blas_thread
 
 __all__ = ["GAMMA", "E", "M", "CUTOFF", "SPACINGS", "DEFAULT_SPACINGS", "BENCH_CASES", "table", "fate_table",
            "summary_rows", "compact_table", "kink_lattice", "kink_start", "flat_count", "period_record",
@@ -68,14 +68,6 @@ SPACINGS = (20.0, 12.0, 10.0, 5.0, 1.0, 0.2, 0.1)
 DEFAULT_SPACINGS = (20.0, 12.0, 11.5, 11.0, 10.5, 10.0)
 #: Nodes for the coarse spacings (>= 5) and the length of the fine ones.
 COARSE_NODES, FINE_LENGTH = 12, 48.0
-
-
-def _limits():
-    try:
-        from threadpoolctl import threadpool_limits
-        return threadpool_limits(1)
-    except ImportError:               # pragma: no cover - optional
-        return contextlib.nullcontext()
 
 
 def kink_lattice(dx, n_nodes=None):
@@ -511,7 +503,7 @@ def main(argv=None):
     args = p.parse_args([] if argv is None else argv)
     spacings = [float(s) for s in args.spacings.split(",")]
     out = {}
-    with _limits():
+    with one_blas_thread():
         for dx in spacings:
             if "fate" not in args.parts and "shoot" not in args.parts:
                 break
