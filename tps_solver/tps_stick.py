@@ -101,7 +101,7 @@ _KINDS = ("bounce", "stick")
 _ZERO_MODE = 1e-10          # |lambda T| below this: the zero mode's closed form
 _COLLAPSE = 1e-10           # stick intervals shorter than this: an impact with w+ = 0
 _BREAK_MARGIN = 1e-12      # neighbour events closer than this to an end do not cut a segment
-_MEDIUM = 1e-3              # segments shorter than this: at most 2 reaction terms
+_MEDIUM = 1e-6              # segments shorter than this: at most 2 reaction terms (was 1e-3: too coarse at dx = 0.5)
 _COLL_SCALE = 1e-2          # collocated w = 0 is divided by max(segment length, this)
 _BREAK_DISTANCE = 3          # cut stick intervals at events of nodes up to this graph distance
 _SHORT = 1e-6               # shorter than this: one reaction term, balanced at the midpoint
