@@ -227,10 +227,11 @@ def _e0_kink_orbit(Gamma, dx):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("Gamma, dx", [(3.9, 2.0), (4.1, 1.0)])
+@pytest.mark.parametrize("Gamma, dx", [(3.9, 2.0), (4.1, 1.0), (4.1, 0.5)])
 def test_lattice_kink_from_shooting_against_fda(Gamma, dx):
     """Pattern from the shooting orbit: the stick TPS converges (Gamma = 3.9 stalled with the FDA
-    pattern, dx = 1 too) and the FDA started on it keeps its contact and lift-off times to 1e-8."""
+    pattern, dx = 1 too; dx = 0.5 takes minutes) and the FDA started on it keeps its contact and
+    lift-off times to 1e-8."""
     lat, orb = _e0_kink_orbit(Gamma, dx)
     sol = ts.solve_stick_lattice(lat, Gamma, pattern=orb, tol=1e-10)
     assert sol.converged and sol.checks.all_pass and sol.K == 2
