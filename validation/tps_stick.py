@@ -143,7 +143,7 @@ def _pdist(a, b, T):
     return np.abs(np.mod(np.asarray(a) - np.asarray(b) + 0.5 * T, T) - 0.5 * T)
 
 
-def kink_from_shooting(dx, Gamma=4.1, length=40.0, guess_periods=10, n_basis=6, n_quad=16, tol=1e-10,
+def kink_from_shooting(dx, Gamma=4.1, length=40.0, guess_periods=10, n_basis=8, n_quad=16, tol=1e-10,
                        fda_periods=2):
     """e = 0 kink: time-stepped start (validation.shooting.e0_kink_guess), shooting, then the stick TPS
     on the shooting orbit's pattern; agreement with the FDA started on the TPS and with the orbit."""
