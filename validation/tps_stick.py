@@ -25,6 +25,7 @@ import numpy as np
 
 import tps_solver as tps
 from tps_solver import tps_stick as ts
+from validation.report import one_blas_thread, phase_distance
 
 GAMMAS = (3.9, 4.1, 4.4)
 
@@ -130,19 +131,6 @@ def fda_from_kink(sol, checkpoints=(20, 40, 80, 160)):
     return out
 
 
-def _limits():
-    try:
-        from threadpoolctl import threadpool_limits
-        return threadpool_limits(1)
-    except ImportError:               # pragma: no cover - optional
-        import contextlib
-        return contextlib.nullcontext()
-
-
-def _pdist(a, b, T):
-    return np.abs(np.mod(np.asarray(a) - np.asarray(b) + 0.5 * T, T) - 0.5 * T)
-
-
 def kink_from_shooting(dx, Gamma=4.1, length=40.0, guess_periods=10, n_basis=8, n_quad=16, tol=1e-10,
                        fda_periods=2):
     """e = 0 kink: time-stepped start (validation.shooting.e0_kink_guess), shooting, then the stick TPS
@@ -171,7 +159,7 @@ def kink_from_shooting(dx, Gamma=4.1, length=40.0, guess_periods=10, n_basis=8, 
                guess_run=run, lattice=lat)
     err = 0.0
     for j in range(lat.n_nodes):
-        d = _pdist(orb.contact_times[j][:, None], sol.contact_times[j][None, :], T)
+        d = phase_distance(orb.contact_times[j][:, None], sol.contact_times[j][None, :], T)
         err = max(err, float(np.max(np.min(d, axis=1))))
     row["shooting_contact_distance"] = err
     if sol.converged:
@@ -239,7 +227,7 @@ def benchmark(dxs=(2.0,), Gamma=4.1, methods=("exact", "point"), max_periods=(10
     """Time to the stick-TPS kink (start -> shooting -> TPS) against FDA time stepping to the same
     orbit at error ``target``, side by side in one run (single-threaded BLAS)."""
     out = []
-    with _limits():
+    with one_blas_thread():
         for i, dx in enumerate(dxs):
             row = kink_from_shooting(dx, Gamma)
             chain = row["guess_seconds"] + row["shooting_seconds"] + row["tps_seconds"]
@@ -272,15 +260,15 @@ def discretisation_table(row, n_basis=(1, 2, 3, 4, 6, 8), n_quad=(4, 6, 8, 12, 1
 
     ref_sol = solve(*ref)
     out = []
-    with _limits():
+    with one_blas_thread():
         for nb, nq in [(nb, 16) for nb in n_basis] + [(6, nq) for nq in n_quad if nq != 16]:
             s = solve(nb, nq)
-            t_err = float(np.max(_pdist(s.pattern.t, ref_sol.pattern.t, T)))
+            t_err = float(np.max(phase_distance(s.pattern.t, ref_sol.pattern.t, T)))
             st = np.isfinite(s.pattern.tau)
-            l_err = float(np.max(_pdist(s.pattern.tau[st], ref_sol.pattern.tau[st], T)))
+            l_err = float(np.max(phase_distance(s.pattern.tau[st], ref_sol.pattern.tau[st], T)))
             sh = 0.0
             for j in range(lat.n_nodes):
-                d = _pdist(orb.contact_times[j][:, None], s.contact_times[j][None, :], T)
+                d = phase_distance(orb.contact_times[j][:, None], s.contact_times[j][None, :], T)
                 sh = max(sh, float(np.max(np.min(d, axis=1))))
             out.append(dict(n_basis=nb, n_quad=nq, converged=s.converged, nit=s.nit, residual=s.residual,
                             contact_error=t_err, liftoff_error=l_err, shooting_distance=sh,
@@ -332,7 +320,7 @@ def pattern_vs_orbit(dx, Gamma=4.1, length=40.0, periods=(10, 40, 160), row=None
                  triggered=int(np.sum(p.trigger >= 0)), orbit_triggered=int(np.sum(p0.trigger >= 0)))
         if same:
             r.update(same_triggers=bool(np.all(p.trigger == p0.trigger)),
-                     time_distance=float(np.max(_pdist(p.t, p0.t, T))))
+                     time_distance=float(np.max(phase_distance(p.t, p0.t, T))))
         out.append(r)
     return out
 
@@ -348,7 +336,7 @@ def continuation(dx=2.0, Gamma=4.1, targets=(4.101, 4.11), row=None):
                                      refresh=0)
         r = dict(Gamma_start=f"{Gamma:g}", Gamma=f"{G2:g}", converged=sol.converged, nit=sol.nit,
                  history=", ".join(f"{h:.1e}" for h in sol.residual_history), solve_seconds=sol.solve_time,
-                 time_shift=float(np.max(_pdist(sol.pattern.t, pattern.t, T))), all_pass=sol.checks.all_pass)
+                 time_shift=float(np.max(phase_distance(sol.pattern.t, pattern.t, T))), all_pass=sol.checks.all_pass)
         if sol.converged:
             chk = ts.check_with_fda(sol, periods=2)
             r.update(fda_contact_error=chk.contact_error, fda_liftoff_error=chk.liftoff_error)
@@ -387,7 +375,7 @@ def main(argv=None):
         gammas = args.gammas or list(GAMMAS)
         print("\n## Lattice kinks (Neumann, L = 40, e = 0, M = 2), pattern from the shooting orbit\n")
         rows = []
-        with _limits():
+        with one_blas_thread():
             for dx in dxs:
                 for G in (gammas if dx == 2.0 else [4.1]):
                     rows.append(kink_from_shooting(dx, G))
@@ -406,7 +394,7 @@ def main(argv=None):
                             "orbit_triggered", "same_triggers", "time_distance"]))
     if "continuation" in parts:
         print("\n## Newton from the Gamma = 4.1 kink pattern at nearby Gamma (dx = 2)\n")
-        with _limits():
+        with one_blas_thread():
             rows = continuation()
         print(_table(rows, ["Gamma_start", "Gamma", "converged", "nit", "time_shift", "history",
                             "fda_contact_error", "fda_liftoff_error", "all_pass", "solve_seconds"]))
@@ -416,7 +404,7 @@ def main(argv=None):
         print(_table(rows, BENCH_COLS))
     if "pareto" in parts:
         print("\n## Discretisation: error vs n_basis (n_quad = 16) and n_quad (n_basis = 6), dx = 2\n")
-        with _limits():
+        with one_blas_thread():
             rows = discretisation_table(kink_from_shooting(2.0, 4.1))
         print(_table(rows, PARETO_COLS))
 
