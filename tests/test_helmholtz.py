@@ -120,7 +120,7 @@ def test_radial_exact_for_dual_cell_constants(seed, length, M, N):
     assert np.max(np.abs(u - ref)) <= 1e-10 * np.max(np.abs(ref))
 
 
-@pytest.mark.parametrize("R_index, M, N", [(20, 2, 4), (150, 1, 6)])
+@pytest.mark.parametrize("R_index, M, N", [(20, 2, 4), pytest.param(150, 1, 6, marks=pytest.mark.slow)])
 def test_radial_step_matches_analytic_solution(R_index, M, N):
     """q = q0 for r < R, q_inf beyond (R a dual-cell edge): u = -q0/k + A I0(beta r) inside,
     -q_inf/k + B K0(beta r) outside, with C^1 matching at R (analytic, no Green's function)."""

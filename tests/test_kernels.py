@@ -47,7 +47,7 @@ def _rel_err(value, ref):
     return abs(value - ref) / abs(ref)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_radial_moments_against_mpmath_closed_form(seed):
     cases = _random_cases(seed, 45)
     beta, a, b = (np.array(v) for v in zip(*cases))
