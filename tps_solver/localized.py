@@ -125,7 +125,7 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
     kw.update({k: v for k, v in (simulate_kw or {}).items()})
     orb = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, cutoff=cutoff, guess=guess, t_start=t_guess,
                               method=method, callback=callback, **kw)
-    orb.localized = _localized(orb)
+    orb.localized = bool(orb.converged) and _localized(orb)
     if orb.converged and not orb.localized:
         note += ("the phase-shifted region did not survive: the converged orbit is uniform (the flat "
                  "layer), not a localized state. ")
@@ -185,7 +185,8 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
         ``converged``, ``residual``, ``multipliers``, ``contacts_per_node``, ``sticking_intervals``,
         ``events`` ...; :func:`front_width` measures its front.  One more field, ``localized``
         (bool): whether the two ends of the lattice are still on different phases (False when
-        the front has left the lattice and the orbit is the flat layer; the message says so).
+        the front has left the lattice and the orbit is the flat layer -- the message says so --
+        and whenever ``converged`` is False).
 
     Raises
     ------
