@@ -5,7 +5,6 @@ Examples
 $ tps-solver lattice-kink --gamma 4.1 --e 0 --dx 2 --length 40
 $ tps-solver lattice-kink --gamma 2.5 --e 0.45 --cutoff 0.3 --dx 12 --length 132
 """
-import sys
 
 NAME = "lattice-kink"
 HELP = ("Periodic kink on a planar Neumann lattice by time stepping and Newton-Krylov shooting, any contact "
