@@ -17,7 +17,6 @@ Measured, side by side in one run:
   events (and, with ``--baseline``, the same for the other version and the CPU-time ratio).
 """
 import argparse
-import contextlib
 import importlib.util
 import time
 
@@ -28,6 +27,7 @@ from tps_solver.fda import kink_state
 from tps_solver import simulate
 from tps_solver.flat_soft import SoftFlatOrbit
 from tps_solver.fda.soft import SoftIntegrator
+from validation.report import one_blas_thread
 
 
 def simulate_soft(lattice, Gamma, e, w0, zeta0, t_start, t_end, **kw):
@@ -35,15 +35,6 @@ def simulate_soft(lattice, Gamma, e, w0, zeta0, t_start, t_end, **kw):
     return simulate(lattice, Gamma, e, w0, zeta0, t_start, t_end, method="soft-radau", **kw)
 
 GAMMA, E, M, ELL = 2.5, 0.45, 2, 0.3
-
-
-def _limits():
-    """One BLAS thread (``threadpoolctl``) as a context manager; a no-op if it is not installed."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:                 # pragma: no cover - timings then use the default BLAS threads
-        return contextlib.nullcontext()
-    return threadpool_limits(1)
 
 
 def drive(integ, t, w, z, t_end, t_eval=()):
@@ -87,6 +78,23 @@ def flat_orbit_errors(periods=50, n_nodes=3, **options):
                 n_events=len(events), wall=wall, cpu=cpu)
 
 
+def _kink_case(n_nodes, length, periods, n_samples):
+    """The pinned kink of the Radau comparisons: lattice, start time, state, end and output times."""
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=length, boundary="pinned")
+    t0 = fl.t0 + 1.0
+    w, z = kink_state(lat, fl, t0, width=2.0)
+    t_end = t0 + periods * fl.period
+    t_eval = t0 + (t_end - t0) * np.arange(1, n_samples + 1) / n_samples
+    return lat, t0, w, z, t_end, t_eval
+
+
+def _sample_errors(samples, ref):
+    """Per output time, max(|dw|, |dzeta|) of the ``drive`` samples against a ``simulate`` run."""
+    return [float(max(np.max(np.abs(ws - ref.w_eval[k])), np.max(np.abs(zs - ref.zeta_eval[k]))))
+            for k, (_, ws, zs) in enumerate(samples)]
+
+
 def kink_vs_radau(n_nodes=9, length=8.0, periods=1.0, rtol=1e-11, n_samples=4, baseline=None, **options):
     """A pinned kink: SoftIntegrator against Radau ``simulate_soft`` (rtol ``rtol``), times and errors.
 
@@ -98,25 +106,17 @@ def kink_vs_radau(n_nodes=9, length=8.0, periods=1.0, rtol=1e-11, n_samples=4, b
         ``baseline`` (another ``SoftIntegrator`` class, :func:`load_baseline`) also
         ``baseline_cpu`` and ``baseline_error`` (its state error against the same reference).
     """
-    fl = tps.FlatLayer(GAMMA, M, E)
-    lat = tps.Lattice.planar(n_nodes=n_nodes, length=length, boundary="pinned")
-    t0 = fl.t0 + 1.0
-    w, z = kink_state(lat, fl, t0, width=2.0)
-    t_end = t0 + periods * fl.period
-    t_eval = t0 + (t_end - t0) * np.arange(1, n_samples + 1) / n_samples
+    lat, t0, w, z, t_end, t_eval = _kink_case(n_nodes, length, periods, n_samples)
     integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options)
     (_, _, _, events, samples), s_wall, s_cpu = _timed(lambda: drive(integ, t0, w, z, t_end, t_eval))
     ref, r_wall, r_cpu = _timed(lambda: simulate_soft(lat, GAMMA, E, w, z, t0, t_end, cutoff=ELL,
                                                       t_eval=t_eval, rtol=rtol, atol=0.1 * rtol))
-    errs = [float(max(np.max(np.abs(ws - ref.w_eval[k])), np.max(np.abs(zs - ref.zeta_eval[k]))))
-            for k, (_, ws, zs) in enumerate(samples)]
+    errs = _sample_errors(samples, ref)
     extra = {}
     if baseline is not None:
         (_, _, _, _, bsamples), _, b_cpu = _timed(
             lambda: drive(baseline(lat, GAMMA, E, cutoff=ELL, **options), t0, w, z, t_end, t_eval))
-        extra = dict(baseline_cpu=b_cpu, baseline_error=max(
-            float(max(np.max(np.abs(ws - ref.w_eval[k])), np.max(np.abs(zs - ref.zeta_eval[k]))))
-            for k, (_, ws, zs) in enumerate(bsamples)))
+        extra = dict(baseline_cpu=b_cpu, baseline_error=max(_sample_errors(bsamples, ref)))
     return dict(**extra, n_nodes=n_nodes, length=length, periods=periods, state_error=max(errs), errors=errs,
                 soft_impacts=sum(ev[2] == "impact" for ev in events), radau_impacts=int(ref.n_events),
                 soft_wall=s_wall, soft_cpu=s_cpu, radau_wall=r_wall, radau_cpu=r_cpu,
@@ -133,12 +133,7 @@ def sensitivity(n_nodes=17, length=8.0, periods=2.0, n_samples=8, eps=1e-13, **o
     -------
     list of float
     """
-    fl = tps.FlatLayer(GAMMA, M, E)
-    lat = tps.Lattice.planar(n_nodes=n_nodes, length=length, boundary="pinned")
-    t0 = fl.t0 + 1.0
-    w, z = kink_state(lat, fl, t0, width=2.0)
-    t_end = t0 + periods * fl.period
-    t_eval = t0 + (t_end - t0) * np.arange(1, n_samples + 1) / n_samples
+    lat, t0, w, z, t_end, t_eval = _kink_case(n_nodes, length, periods, n_samples)
     runs = [drive(SoftIntegrator(lat, GAMMA, E, cutoff=ELL, **options), t0, w + d, z, t_end, t_eval)[4]
             for d in (0.0, eps)]
     return [float(max(np.max(np.abs(a[1] - b[1])), np.max(np.abs(a[2] - b[2])))) for a, b in zip(*runs)]
@@ -197,7 +192,7 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=1,
                         help="runs of the 481-node kink (alternating with the baseline); the fastest is shown")
     args = parser.parse_args(argv)
-    with _limits():
+    with one_blas_thread():
         r = flat_orbit_errors(50)
         print(f"flat orbit, 50 periods: entry error {r['entry_error']:.2e}, exit error "
               f"{r['exit_error']:.2e}, {r['n_events']} events, {r['wall']:.2f} s wall / {r['cpu']:.2f} s cpu")

@@ -22,6 +22,7 @@ import numpy as np
 import tps_solver as tps
 from validation.report import one_blas_thread, phase_distance
 from tps_solver.fda import kink_state
+from tps_solver.localized import front_width
 from tps_solver.shooting import find_periodic_orbit
 
 
@@ -100,27 +101,6 @@ def e0_kink_guess(lattice, Gamma=4.1, M=2, periods=10, width=2.0, phase=0.25):
     th = np.clip(lattice.nodes / width + 0.5, 0.0, 1.0)
     w, z = wl + th * (wr - wl), zl + th * (zr - zl)
     return tps.simulate(lattice, Gamma, 0.0, w, z, t_start=s, t_end=s + periods * T)
-
-
-def front_width(orb, n_samples=512):
-    """10-90 % width of theta = (zeta - zeta_L)/(zeta_R - zeta_L) at the instants where the left
-    and the right far field are highest.  Returns (width at left max, width at right max)."""
-    ts = orb.t_start + orb.period * np.arange(n_samples) / n_samples
-    Z = orb.height(ts)
-    x = orb.lattice.nodes
-    out = []
-    for col in (0, -1):
-        k = int(np.argmax(Z[:, col]))
-        z = Z[k]
-        th = (z - z[0]) / (z[-1] - z[0])
-        if th[-1] < th[0]:
-            th = 1.0 - th
-        xs = []
-        for level in (0.1, 0.9):
-            i = int(np.flatnonzero(th >= level)[0])
-            xs.append(x[i - 1] + (level - th[i - 1]) * (x[i] - x[i - 1]) / (th[i] - th[i - 1]) if i > 0 else x[0])
-        out.append(float(abs(xs[1] - xs[0])))
-    return tuple(out)
 
 
 def e0_kinks(dxs=(2.0, 1.0, 0.5), length=40.0, Gamma=4.1, M=2, periods=10, max_iter=80, callback=None):
