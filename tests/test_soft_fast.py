@@ -160,6 +160,28 @@ def test_simultaneous_entry_of_a_flat_region_is_one_event_set():
     assert abs(s.t - (orb.t_exit + orb.flight)) < 1e-12
 
 
+@pytest.mark.parametrize("dz, off", [(1e-13, 3e-14), (2e-13, 1e-14), (1e-12, 3e-13)])
+def test_output_time_just_after_a_simultaneous_exit(dz, off):
+    """Nodes that leave the contact in one event set sit up to time_tol on the wrong side of their
+    own exit; an output time a few ulps later used to start a switch search in a sliver where the
+    violation is positive throughout, which stalled (RuntimeError).  The sample must be the flat
+    orbit's state there and the events those of the run without output times."""
+    orb = SoftFlatOrbit(GAMMA, M, E, ELL)
+    lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+    ts, w, z = flat_start(3, orb)
+    z[1] += dz
+    *_, ref, _ = drive(SoftIntegrator(lat, GAMMA, E, cutoff=ELL), ts, w.copy(), z.copy(), ts + orb.period)
+    te = next(ev[0] for ev in ref if ev[2] == "liftoff")
+    *_, events, samples = drive(SoftIntegrator(lat, GAMMA, E, cutoff=ELL), ts, w.copy(), z.copy(),
+                                ts + orb.period, t_eval=[te + off])
+    assert [ev[1:3] for ev in events] == [ev[1:3] for ev in ref]
+    assert max(abs(a[0] - b[0]) for a, b in zip(events, ref)) <= 1e-13
+    (t_s, w_s, z_s), = samples
+    w_o, z_o = orb.state(t_s)
+    assert t_s == te + off
+    assert np.max(np.abs(w_s - w_o)) <= 1e-10 and np.max(np.abs(z_s - z_o)) <= 1e-11
+
+
 def test_event_bound_raises_runtime_error_with_advice():
     lat = tps.Lattice.planar(n_nodes=3, length=2.0)
     integ = SoftIntegrator(lat, GAMMA, E, cutoff=ELL, max_events=1, stick_speed=0.0)

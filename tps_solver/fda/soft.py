@@ -59,7 +59,12 @@ region enters as one set); a node found to have crossed more than
 ``time_tol`` *earlier* becomes the new target.  The other crossings that the
 step predicted are kept, and the next :meth:`~SoftIntegrator.advance` call
 locates them directly (no new trial step) when it starts from the returned
-state -- a front entering node by node costs about two steps per switch.  A
+state -- a front entering node by node costs about two steps per switch.  A node
+switched with others within the window may start the next step up to
+``2 time_tol`` on the wrong side of its own switch, moving away; the scan does
+not count that sliver as a crossing (a search inside it, where the violation is
+positive throughout, used to stall when an output time fell a few ulps after
+such a switch).  A
 switch only changes :math:`c` -- the state is continuous -- so the method
 carries no impact map.
 
@@ -699,12 +704,21 @@ class SoftIntegrator(Integrator):
             if not last or h >= self._h:
                 self._h = h * grow
             # scan both halves for crossings
-            v0 = np.minimum(self._violation(t, w, z, mode, cfg, with_rate=False), 0.0)
+            v0 = self._violation(t, w, z, mode, cfg, with_rate=False)
             tga, va = self._grid_violation(t, hh, w, Ywa, Zga, cfg)
             tgb, vb = self._grid_violation(t_mid, h2, wa, Ywb, Zgb, cfg)
             tg = np.concatenate(([t], tga[:-1], [t_mid], tgb[:-1], [t_new]))
             vg = np.concatenate((v0[None, :], va, vb))
             pos = vg > 0.0
+            away = v0 > 0.0
+            if away.any():
+                # a node switched within the simultaneity window may start on the wrong side of its
+                # switch, moving away (_consistency keeps it; it is back within 2 time_tol): v > 0
+                # there is no crossing.  One counts after v has been <= 0 or past that sliver
+                # (else a search inside the sliver, where v > 0 throughout, would stall)
+                pos[:, away] &= (np.logical_or.accumulate(vg[:, away] <= 0.0, axis=0)
+                                 | (tg > t + 4.0 * self.time_tol)[:, None])
+                vg[0] = np.minimum(v0, 0.0)
             hit = pos.any(axis=0)
             if hit.any():
                 nodes = np.flatnonzero(hit)
@@ -724,7 +738,7 @@ class SoftIntegrator(Integrator):
                 i = int(np.argmin(guess))
                 j = int(nodes[i])
                 he, we, ze = self._locate(t, w, z, mode, cfg, j, float(guess[i]) - t, float(tg[k[i]]) - t,
-                                          R=R0)
+                                          R=R0, h_lo=4.0 * self.time_tol if away[j] else 0.0)
                 fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": t_new}
                 return self._finish(t, w, z, mode, cfg, j, he, we, ze, fc, t_eval, k_eval, samples, events, R0)
             # accept the two half steps (the more accurate value)
@@ -787,20 +801,21 @@ class SoftIntegrator(Integrator):
         return Step(t=te, w=we, zeta=ze, samples=samples, events=events, stuck=mode != _FREE)
 
     # ------------------------------------------------------------ event location
-    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi, verified=True, R=None):
-        """Safeguarded Newton in the step size h for the crossing of node j in (0, h_hi].
+    def _locate(self, t0, w0, z0, mode, cfg, j, guess, h_hi, verified=True, R=None, h_lo=0.0):
+        """Safeguarded Newton in the step size h for the crossing of node j in (h_lo, h_hi].
 
         Every evaluation is a full collocation step from ``t0``; h is kept relative to ``t0``, so the
         switch is located to the precision of h (not of t).  Returns (h, w, zeta) at the crossing.
+        ``h_lo > 0``: node j starts on the wrong side of its last switch (see :meth:`advance`).
         """
-        lo, hi = 0.0, h_hi
+        lo, hi = min(h_lo, 0.5 * h_hi), h_hi
         hk = min(max(guess, 0.0), h_hi)
         best = None
         for it in range(60):
             if not verified and it >= 6:
                 return None
-            if hk <= 0.0:
-                hk = 0.5 * hi
+            if hk <= lo:
+                hk = 0.5 * (lo + hi)
             we, ze = self._steps(t0, (hk,), w0, z0, cfg, (False,), R)[0][:2]
             vj, dvj = self._violation_at(j, t0 + hk, we, ze, cfg)
             if vj > 0.0:
@@ -878,6 +893,9 @@ class SoftIntegrator(Integrator):
         v, dv = self._violation(te, we, ze, mode, cfg)
         thr = self.time_tol * dv                   # |te - t_cross| <= time_tol  <=>  |v| <= thr (dv > 0)
         early = v > np.maximum(thr, 0.0)           # crossed more than time_tol before te
+        # ... but not a node moving away within the window of _consistency (switched by an earlier
+        # event of the window, on the wrong side by round-off; a search for it would stall)
+        early &= ~((dv < 0.0) & (v <= -2.0 * thr))
         early[j] = False
         if early.any():
             idx = np.flatnonzero(early)
