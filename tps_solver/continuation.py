@@ -59,6 +59,7 @@ import numpy as np
 
 from ._checks import check_choice, check_int, check_positive, check_real
 from ._result import Bunch
+from .soft_monodromy import SoftMonodromy
 
 __all__ = ["continue_branch", "Branch", "load_branch", "BRANCH_STATUS"]
 
@@ -356,10 +357,13 @@ class _OrbitProblem:
     """Periodic orbits of the FDA by shooting, any contact pattern: F(x, p) = P(x; p) - x.
 
     ``x`` is the state ``(w, zeta)`` of all nodes at the section ``t_start`` of the start orbit
-    (which must have no node stuck there); the Jacobian is a dense central difference of the
-    period map (2 n_nodes periods), so this is meant for small lattices.  The monodromy is
-    ``dP/dx``; with point impacts it is only piecewise smooth where contacts coincide
-    (docs/design.md, hazard 7), and the multipliers are those of the central difference.
+    (which must have no node stuck there).  For the soft contact ``dP/dx`` is the exact
+    linearised period map (:class:`~tps_solver.soft_monodromy.SoftMonodromy`, one run; a central
+    difference only at a grazing switch); for point impacts it is a dense central difference of
+    the period map (4 n_nodes periods), so this is meant for small lattices.  ``dF/dp`` is a
+    central difference (two periods).  With point impacts the map is only piecewise smooth where
+    contacts coincide (docs/design.md, hazard 7), and the multipliers are those of the central
+    difference.
     """
 
     name = "shooting"
@@ -387,6 +391,10 @@ class _OrbitProblem:
         self._last = None
 
     def _period_map(self, x, p):
+        run = self._run(x, p)
+        return np.concatenate([run.w, run.zeta])
+
+    def _run(self, x, p):
         from .fda import simulate
 
         kw = dict(self.fixed)
@@ -403,7 +411,7 @@ class _OrbitProblem:
         if not run.success or np.any(run.stuck):
             raise _Refused(f"the period map at {self.parameter} = {p:.6g} failed or ended with stuck "
                            f"nodes: {run.message}")
-        return np.concatenate([run.w, run.zeta])
+        return run
 
     def residual(self, x, p):
         return self._period_map(x, p) - x
@@ -412,13 +420,22 @@ class _OrbitProblem:
         key = (x.tobytes(), float(p))
         if self._last is not None and self._last[0] == key:
             return self._last[1]
-        h = 1e-6 * max(1.0, float(np.max(np.abs(x))))
-        cols = []
-        for k in range(x.size):
-            d = np.zeros_like(x)
-            d[k] = h
-            cols.append((self._period_map(x + d, p) - self._period_map(x - d, p)) / (2.0 * h))
-        P = np.array(cols).T
+        P = None
+        if self.method == "soft":
+            # the exact linearised period map (tps_solver.soft_monodromy): one run, no differences
+            n = self.lattice.n_nodes
+            try:
+                P = SoftMonodromy.from_run(self._run(x, p), x[:n], x[n:], self.t_s).matrix()
+            except ValueError:          # a grazing switch: the map is not differentiable there
+                P = None
+        if P is None:
+            h = 1e-6 * max(1.0, float(np.max(np.abs(x))))
+            cols = []
+            for k in range(x.size):
+                d = np.zeros_like(x)
+                d[k] = h
+                cols.append((self._period_map(x + d, p) - self._period_map(x - d, p)) / (2.0 * h))
+            P = np.array(cols).T
         hp = 1e-6 * max(1.0, abs(p))
         Jp = (self.residual(x, p + hp) - self.residual(x, p - hp)) / (2.0 * hp)
         self._last = (key, (P, Jp))
