@@ -1,7 +1,5 @@
 """The validation studies' functions, in fast configurations, asserted on their numbers."""
-import math
 
-import numpy as np
 import pytest
 
 from validation import lattice_tps, tps_branches

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.tps.engine import continuation, newton
-from tps_solver.tps.problems import ContinuumProblem, decoupled_spacing
+from tps_solver.tps.engine import newton
+from tps_solver.tps.problems import ContinuumProblem
 
 EPS = np.finfo(float).eps
 

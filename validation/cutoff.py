@@ -31,7 +31,6 @@ tables (markdown) and write ``validation/figures/cutoff_growth.png`` and
 """
 import math
 import os
-import sys
 import time
 
 import numpy as np

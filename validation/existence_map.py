@@ -985,8 +985,8 @@ def _section(cfg, maps, map_times, fronts, front_wall, timing, total):
     parts += ["", "### 5. Cost", "",
               markdown_table(cost, [("solver", "solver"), ("unit", "what"), ("runs", "n"), ("median s", "median"),
                                     ("mean s", "mean"), ("max s", "max"), ("map wall s", "wall")]), "",
-              f"Per-run times are wall seconds inside the worker processes on the loaded machine (CPU times of the "
-              f"front runs are given with them). " + (cfg.get("history_note") or
+              "Per-run times are wall seconds inside the worker processes on the loaded machine (CPU times of the "
+              "front runs are given with them). " + (cfg.get("history_note") or
               f"Full map: {total:.0f} s wall (basins {sum(map_times.values()):.0f} s, fronts {front_wall:.0f} s, "
               "timing study included). ") +
               f"1 against 2 workers on the same {timing['points']}-point basin sub-map (e = 0.45, "

@@ -12,7 +12,6 @@ their numbers so tests can assert on them.
 * :func:`kink_runs` -- the paper's kink initial condition on pinned 41/81-node
   lattices for 20 periods: events, sticking, wall time.
 """
-import math
 import os
 import sys
 import time
@@ -130,7 +129,6 @@ def _table(rows, keys):
 
 
 def _figure(rows, path):
-    import matplotlib
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5.5, 4))
     for method, mk in (("exact", "o-"), ("ode", "s--")):

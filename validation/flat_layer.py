@@ -25,7 +25,6 @@ write ``validation/sections/flat_tps_fda.md``.
 """
 import math
 import os
-import sys
 import time
 
 import numpy as np

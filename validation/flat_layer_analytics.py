@@ -23,7 +23,6 @@ Run ``python validation/flat_layer_analytics.py`` from the repository root.
 """
 import math
 import os
-import sys
 
 import numpy as np
 from scipy import integrate, optimize
@@ -320,7 +319,6 @@ def harmonics_table(cases=((2.5, 2, 0.45, "stable"), (2.5, 2, 0.45, "unstable"),
 
 
 def _plot_multipliers(path, e=0.45, M=2):
-    import matplotlib
     import matplotlib.pyplot as plt
 
     low, high = FlatLayer.stability_window(e, M)

@@ -19,7 +19,6 @@ write ``validation/sections/helmholtz.md`` and
 ``validation/figures/helmholtz_convergence.png``.
 """
 import os
-import sys
 import time
 
 import mpmath as mp
@@ -183,7 +182,6 @@ def timing_study(cases=((30, 400), (30, 1600), (128, 400), (256, 400)), M=2, len
 
 
 def _figure(studies, path):
-    import matplotlib
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(5.5, 4.0))

@@ -16,7 +16,6 @@ Run ``python validation/linear_stability.py`` to print the tables and write
 ``validation/figures/linear_stability_convergence.png``.
 """
 import os
-import sys
 
 import mpmath
 import numpy as np
@@ -185,7 +184,6 @@ def _fmt_table(header, rows):
 
 
 def main():
-    import matplotlib
     import matplotlib.pyplot as plt
 
     from tps_solver.plotting import plot_growth_rates as plot_sigma

@@ -30,7 +30,6 @@ write ``validation/sections/speed.md`` and the Pareto plot
 """
 import math
 import os
-import sys
 
 import numpy as np
 
@@ -236,7 +235,7 @@ def fda_kink_rows(fl, nodes=(11, 21), tols=(1e-6, 1e-9), repeats=5, length=8.0):
             return simulate(lat, fl.Gamma, fl.e, w, z, t_start=ts, t_end=ts + fl.period, method=method, **kw)
 
         sec, ref = median_time(lambda: go("exact", None), repeats)
-        rows.append(dict(method="FDA exact", problem=f"kink initial state, 1 period", setting=f"{n} nodes",
+        rows.append(dict(method="FDA exact", problem="kink initial state, 1 period", setting=f"{n} nodes",
                          n_nodes=n, tol=None, converged=bool(ref.success), error=None,
                          reference="(is the reference)", time=sec, repeats=repeats, n_events=int(ref.n_events)))
         for tol in tols:
@@ -478,7 +477,6 @@ def speed_vs_error(config=None, **overrides):
 
 def plot(result, path):
     """Pareto plot: error against median wall time, one marker per method and problem."""
-    import matplotlib
 
     import matplotlib.pyplot as plt
 

@@ -184,7 +184,6 @@ def table4(rows, keys):
 
 
 def _figures(sv, scans):
-    import matplotlib
 
     import matplotlib.pyplot as plt
 

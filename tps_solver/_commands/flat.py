@@ -30,7 +30,7 @@ def describe(fl):
         f"  pre-impact W(T-)     = {fl.impact_velocity:.12g}",
         f"  peak height          = {fl.peak_height:.12g}",
         "  Floquet multipliers  = " + ", ".join(f"{m.real:+.10f}{m.imag:+.10f}j" for m in mu),
-        f"  |multipliers|        = " + ", ".join(f"{abs(m):.10f}" for m in mu),
+        "  |multipliers|        = " + ", ".join(f"{abs(m):.10f}" for m in mu),
         f"  stable?              = {fl.is_stable}",
     ]
     if abs(abs(mu[0]) - 1.0) < 1e-9:
