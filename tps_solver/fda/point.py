@@ -62,7 +62,7 @@ import numpy as np
 from ..flight import phi2_expm1
 from .base import Integrator, Step
 from .events import event_sets
-from .exact import Modes, candidate_group
+from .exact import Modes
 
 __all__ = ["PointIntegrator"]
 
@@ -100,7 +100,18 @@ class _Band:
 
 
 class _FreeSet:
-    """Everything of one free set that does not depend on the state (cached)."""
+    """Everything of one free set that does not depend on the state (cached).
+
+    Besides the modal data it holds the layout of the fused evaluation matrix of
+    :class:`_Segment` (one product per search step): the rows are, for the free set
+    without stuck nodes, ``[a_F, w_F, zeta_F, 2 D_2, 2 D_1]`` and otherwise
+    ``[w_F, zeta_F, -a_S, a_F, w_F, -a_S', 2 D_2, 2 D_1, 2 C_S]`` (``a`` free accelerations,
+    ``D`` the derivative bounds, ``C_S`` the bound of ``|a_S''|``), so that the values ``f``,
+    slopes ``f'`` and doubled bounds ``2A`` of the velocity rows (first ``nf``) and of the
+    candidates (heights, then minus the stuck accelerations) are three contiguous slices.
+    The columns multiply ``y = [e^{lam tau} - 1, (tau^2 phi_2(lam tau)), sigma_1, sigma_2,
+    zeta_1, zeta_2, zeta_3, tau, g, cos t, 1]`` (:meth:`_Segment.y`).
+    """
 
     def __init__(self, lattice, free, Gamma):
         md = Modes(lattice, free)
@@ -125,6 +136,8 @@ class _FreeSet:
         res = np.zeros(self.nf, dtype=complex)
         res[forced] = 1.0 / (1j - self.lam[forced])
         self.s_re, self.s_im = s * res.real, s * res.imag
+        self.q = s / Gamma
+        self.q_ls = self.q / self.lam_safe
         # [V | V (s Re r) | V (s Im r) | V s / Gamma]: the scalar-coefficient part of the flight
         self.VP = np.column_stack((self.V, self.V @ np.column_stack((self.s_re, self.s_im, s / Gamma))))
         G = 1.0 + 1.0 / Gamma
@@ -141,10 +154,88 @@ class _FreeSet:
         self.forcing_T = np.ascontiguousarray(self.forcing[:, :2].T)
         self.L_FF = _Band(md.L_FF)
         self.L_SF = _Band(md.L_SF)
+        self._layout()
+
+    def _layout(self):
+        """Row offsets, column indices and the state-independent parts of the fused matrix."""
+        nf, nS = self.nf, self.S.size
+        self.nS = nS
+        L = 2 * nf + nS
+        self.L = L
+        if nS == 0:
+            self.r_acc, self.r_w, self.r_B = 0, nf, 3 * nf
+            self.f_off, self.fp_off, self.A_off = nf, 0, 3 * nf
+            n_rows = 5 * nf
+        else:
+            self.r_w, self.r_acc, self.r_B = 0, L, 2 * L
+            self.f_off, self.fp_off, self.A_off = 0, L, 2 * L
+            n_rows = 3 * L
+        self.r_z = self.r_w + nf
+        b = nf if self.zero_only else 2 * nf
+        self.b = b
+        # scalar columns: sigma_1, sigma_2, tau, zeta_1, zeta_2, zeta_3, g, cos t, 1
+        self.c_tau, self.c_g, self.c_cos, self.c_one = b + 2, b + 6, b + 7, b + 8
+        self.ncol = b + 9
+        self.inflate = 1.0 + 4.0 * self.ncol * _EPS
+        V, P = self.V, self.VP[:, nf:]
+        L_FF, L_SF = self.modes.L_FF, self.modes.L_SF
+        # the modal (E) columns: per row block, a template scaled per segment by the coefficients
+        # of e^{lam tau} - 1 of the velocities ('w'), of the heights ('z') or by |a| ('abs')
+        LV = L_FF @ V
+        T_B2 = 2.0 * self.absV * self.abs_lam ** 2
+        T_A2 = 2.0 * self.absV * self.abs_lam
+        K = np.zeros((n_rows, self.ncol))
+        TE = np.zeros((n_rows, nf))
+        rw, rz, ra, rB = self.r_w, self.r_z, self.r_acc, self.r_B
+        Kw, Kz, Ka = K[rw:rw + nf], K[rz:rz + nf], K[ra:ra + nf]
+        TE[rw:rw + nf], TE[rz:rz + nf], TE[ra:ra + nf] = V, V / self.lam_safe, LV
+        TE[rB:rB + nf], TE[rB + nf:rB + 2 * nf] = T_B2, T_A2
+        Kw[:, b], Kw[:, b + 1], Kw[:, b + 2] = P[:, 0], P[:, 1], V @ (-self.q * self.zero)
+        Kz[:, b + 3], Kz[:, b + 4] = P[:, 0], P[:, 1]
+        if self.zero_only:
+            Kz[:, b + 5] = P[:, 2]
+        else:
+            Kz[:, nf:2 * nf] = V * -self.q
+        Ka[:] = L_FF @ Kw
+        Ka[:, self.c_g] = 1.0
+        fixed = np.zeros(n_rows)                      # constant parts of the last column
+        fixed[rB:rB + 2 * nf] = 2.0 * np.concatenate((self.forcing[:, 1], self.forcing[:, 0]))
+        if nS:
+            r_s = 2 * nf
+            K[r_s:r_s + nS] = -(L_SF @ Kw)
+            K[r_s:r_s + nS, self.c_g] = -1.0
+            TE[r_s:r_s + nS] = -(L_SF @ V)
+            K[L + nf:L + 2 * nf], TE[L + nf:L + 2 * nf] = Kw, V
+            K[L + r_s:L + r_s + nS] = -(L_SF @ Ka)
+            K[L + r_s:L + r_s + nS, self.c_cos] = -1.0
+            TE[L + r_s:L + r_s + nS] = -(L_SF @ LV)
+            # 2 C_S = 2 (1 + |L_SF| D_2) >= 2 |a_S''| = 2 |-sin t + L_SF w''|
+            TE[2 * L + r_s:] = self.modes.absL_SF @ T_B2
+            fixed[2 * L + r_s:] = self.modes.absL_SF @ fixed[rB:rB + nf] + 2.0
+            blocks = [(0, nf, "w"), (nf, 2 * nf, "z"), (2 * nf, 2 * L, "w"), (2 * L, 3 * L, "abs")]
+        else:
+            blocks = [(0, 2 * nf, "w"), (2 * nf, 3 * nf, "z"), (3 * nf, 5 * nf, "abs")]
+        if self.zero_only:                             # the same coefficients a for 'w' and 'z'
+            blocks = [(r0, r1, "w" if kind == "z" else kind) for r0, r1, kind in blocks]
+        merged = []
+        for r0, r1, kind in blocks:
+            if merged and merged[-1][2] == kind and merged[-1][1] == r0:
+                merged[-1] = (merged[-1][0], r1, kind)
+            else:
+                merged.append((r0, r1, kind))
+        self.blocks = merged
+        self.abs_rows = slice(rB, n_rows)
+        # the per-segment columns (modal block, tau column of the heights, last column) are
+        # overwritten by each _Segment: one live segment per free set (the integrator's case)
+        self.K, self.TE, self.fixed = K, TE, fixed
+        self.TE_abs = TE[rB:]
+        self.fixed_abs = fixed[rB:]
+        # modal velocity amplitudes: a + (e^{lam tau} - 1) c_w + [s Re r, s Im r, -q] (sigma_1, sigma_2, tau)
+        self.Sm = np.column_stack((self.s_re, self.s_im, -self.q * self.zero))
 
 
 class _Segment:
-    r"""Closed-form flight (55)-(56) of one free set from ``t_c``, O(n) per evaluated node.
+    r"""Closed-form flight (55)-(56) of one free set from ``t_c``: one matrix product per evaluation.
 
     With :math:`r = 1/(i - \lambda)` and :math:`e^{it_c}r\,s = u + iv` per mode, the forced
     response of :func:`~.exact.forced_response` is
@@ -156,68 +247,102 @@ class _Segment:
                       - \frac{s}{\Gamma}\tau^2\varphi_2(\lambda\tau),
 
     :math:`\mathrm{vers}\,\tau = 1 - \cos\tau = 2\sin^2(\tau/2)` (no cancellation at
-    small :math:`\tau`, which keeps the root polish convergent).  The terms with scalar
-    coefficients go through the per-free-set columns :math:`V(s\,\mathrm{Re}\,r)`,
-    :math:`V(s\,\mathrm{Im}\,r)`, :math:`Vs/\Gamma`, rotated by :math:`t_c`, so one
-    evaluation is one product with ``[V | P]``; when gravity forces zero modes only
-    (no stuck node) all forcing terms are of that kind.
+    small :math:`\tau`, which keeps the root polish convergent), and
+    :math:`\tau\varphi_1(\lambda\tau) = (e^{\lambda\tau} - 1)/\lambda` (:math:`\tau` for a zero
+    mode).  Every term is a per-segment vector times one of the scalars or of the vectors
+    :math:`e^{\lambda\tau} - 1`, :math:`\tau^2\varphi_2(\lambda\tau)` of :meth:`y`, so the
+    matrix ``K`` (rows: see :class:`_FreeSet`), built once per segment from per-free-set
+    templates, gives the velocities, heights, free accelerations
+    :math:`\underline L_{FF}\underline w_F + g`, the derivative bounds :math:`2D_2, 2D_1`
+    (the decaying part :math:`|V||\lambda|^m e^{\lambda\tau}|a|` is
+    :math:`(|V||\lambda|^m\,\mathrm{diag}|a|)(e^{\lambda\tau} - 1) + |V||\lambda|^m|a|`) and the
+    stuck-node candidates as ``K @ y(tau)``.
     """
 
     def __init__(self, fs, a, zeta0, t_c, Gamma):
         self.fs, self.a, self.zeta0, self.t_c = fs, a, zeta0, t_c
         c, sn = math.cos(t_c), math.sin(t_c)
-        # (u, v) = rotation of (s Re r, s Im r) by t_c
         self.cs = (c, sn)
-        self.u = c * fs.s_re - sn * fs.s_im
-        self.v = sn * fs.s_re + c * fs.s_im
-        self.q = fs.s / Gamma
-        self.a_v = a - self.v
+        self.q = fs.q
+        self.inv_gamma = 1.0 / Gamma
         self.zero_only = fs.zero_only
-        self._memo = (None, None, None)
+        nf, one = fs.nf, fs.c_one
+        abs_a = np.abs(a)
+        self.abs_a = abs_a
+        if fs.zero_only:
+            cz = cw = a
+        else:
+            cz = a - (sn * fs.s_re + c * fs.s_im)       # a - v
+            cw = cz - fs.q_ls
+        self.cw = cw
+        K = fs.K
+        TE = fs.TE
+        for r0, r1, kind in fs.blocks:
+            np.multiply(TE[r0:r1], cw if kind == "w" else cz if kind == "z" else abs_a, out=K[r0:r1, :nf])
+        K[:, one] = TE @ a
+        rB = fs.r_B
+        K[rB:, one] = (fs.TE_abs @ abs_a + fs.fixed_abs) * fs.inflate
+        r_z = fs.r_z
+        K[r_z:r_z + nf, one] = zeta0
+        K[r_z:r_z + nf, fs.c_tau] = fs.V @ (fs.zero * cz)
+        self.K = K
+        self._y = np.empty(fs.ncol)
+        self._yE = self._y[:nf]
+        self._ys = self._y[fs.b:fs.b + 3]
+        self._tau = None
+        self._out_tau, self._out = None, None
 
-    def coefficients(self, tau):
-        """``(M, e^{lam tau})``: ``[V | P] @ M`` is ``(w_F, zeta_F - zeta_F(t_c))`` at ``tau``."""
-        if self._memo[0] == tau:
-            return self._memo[1:]
+    def y(self, tau):
+        """The column vector of ``K`` at local time ``tau`` (a buffer, overwritten by the next call)."""
+        if tau == self._tau:
+            return self._y
         fs = self.fs
-        nf = fs.nf
-        z = fs.lam * tau
-        em1 = np.expm1(z)
-        expo = em1 + 1.0
-        p1 = em1 / fs.lam_safe + fs.zero * tau              # tau phi_1(lam tau)
+        y, E = self._y, self._yE
         st = math.sin(tau)
         vers = 2.0 * math.sin(0.5 * tau) ** 2
-        M = np.empty((nf + 3, 2))
         c, sn = self.cs
         if self.zero_only:
-            M[:nf, 0] = expo * self.a
-            M[:nf, 1] = p1 * self.a
-            zv, zq = st - tau, -0.5 * tau * tau
-            M[nf:] = ((c * st - sn * vers, c * vers + sn * zv), (-sn * st - c * vers, -sn * vers + c * zv),
-                      (-tau, zq))
+            np.multiply(fs.lam, tau, out=E)
+            np.expm1(E, out=E)
+            zv = st - tau
         else:
-            M[:nf, 0] = expo * self.a - self.v * em1 - self.q * p1
-            M[:nf, 1] = p1 * self.a_v - self.q * (tau * tau * phi2_expm1(z, em1))
-            M[nf:] = ((c * st - sn * vers, c * vers + sn * st), (-sn * st - c * vers, -sn * vers + c * st),
-                      (0.0, 0.0))
-        self._memo = (tau, M, expo)
-        return M, expo
+            z = fs.lam * tau
+            np.expm1(z, out=E)
+            y[fs.nf:fs.b] = (tau * tau) * phi2_expm1(z, E)
+            zv = st
+        t = self.t_c + tau
+        y[fs.b:] = (c * st - sn * vers, -sn * st - c * vers, tau, c * vers + sn * zv, -sn * vers + c * zv,
+                    -0.5 * tau * tau, math.sin(t) - self.inv_gamma, math.cos(t), 1.0)
+        self._tau = tau
+        return y
+
+    def evaluate(self, tau):
+        """``K @ y(tau)``: all rows (see :class:`_FreeSet`) at local time ``tau`` (the last one is kept)."""
+        if tau != self._out_tau:
+            self._out = self.K @ self.y(tau)
+            self._out_tau = tau
+        return self._out
 
     def velocity_amplitudes(self, tau):
-        """Modal amplitudes of ``w_F`` at ``tau`` (the state carried to the next segment)."""
-        M, _ = self.coefficients(tau)
-        st = math.sin(tau)
-        vers = 2.0 * math.sin(0.5 * tau) ** 2
-        cw = M[:self.fs.nf, 0] + self.u * st - self.v * vers
-        if self.zero_only:                  # q is supported on zero modes: q tau phi_1 = q tau
-            cw = cw - self.q * tau
+        """Modal amplitudes of ``w_F`` at ``tau`` (the state carried to the next segment).
+
+        :math:`\\underline c_w = \\underline a + (e^{\\lambda\\tau} - 1)\\underline c + s\\,\\mathrm{Re}\\,r\\,
+        \\sigma_1 + s\\,\\mathrm{Im}\\,r\\,\\sigma_2 - q\\tau` (``q`` on the zero modes), with
+        :math:`\\sigma_1 = \\cos t_c\\sin\\tau - \\sin t_c\\,\\mathrm{vers}\\,\\tau`,
+        :math:`\\sigma_2 = -\\sin t_c\\sin\\tau - \\cos t_c\\,\\mathrm{vers}\\,\\tau`
+        (:math:`u\\sin\\tau - v\\,\\mathrm{vers}\\,\\tau` regrouped).
+        """
+        y = self.y(tau)
+        cw = self._yE * self.cw
+        cw += self.a
+        cw += self.fs.Sm @ self._ys
         return cw
 
     def state(self, tau):
         """``(w_F, zeta_F, e^{lam tau})`` at local time ``tau``."""
-        M, expo = self.coefficients(tau)
-        WZ = self.fs.VP @ M
-        return WZ[:, 0], self.zeta0 + WZ[:, 1], expo
+        out = self.evaluate(tau)
+        fo, nf = self.fs.f_off, self.fs.nf
+        return out[fo:fo + nf], out[fo + nf:fo + 2 * nf], self._yE + 1.0
 
 
 class PointIntegrator(Integrator):
@@ -293,15 +418,16 @@ class PointIntegrator(Integrator):
         self.n_projections = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
+        self._guard_max = -math.inf
         # (t, free-set key, returned w_F, modal velocity amplitudes at t) of the last call
         self._carry = None
 
     # --------------------------------------------------------------- free sets
-    def _free_set(self, free):
-        key = np.packbits(free).tobytes()
+    def _free_set(self, stuck):
+        key = stuck.tobytes()
         fs = self._cache.get(key)
         if fs is None:
-            fs = _FreeSet(self.lattice, free, self.Gamma)
+            fs = _FreeSet(self.lattice, ~stuck, self.Gamma)
             self.n_decompositions += 1
             self._cache[key] = fs
             if len(self._cache) > self._cache_size:
@@ -315,9 +441,13 @@ class PointIntegrator(Integrator):
         carry = self._carry
         if carry is not None and carry[0] == t and carry[1] == key:
             w_prev, c_prev = carry[2], carry[3]
-            moved = wF != w_prev
             flipped = wF != -self.e * w_prev
-            n1, n2 = np.count_nonzero(moved), np.count_nonzero(flipped)
+            n2 = np.count_nonzero(flipped)
+            if n2 == 0 and wF.any():
+                # every node mapped by w -> -e w (a flat contact set): fewer than n1 >= 1 moved
+                return -self.e * c_prev
+            moved = wF != w_prev
+            n1 = np.count_nonzero(moved)
             if n1 <= n2:
                 a = c_prev.copy()
                 if n1:
@@ -331,24 +461,6 @@ class PointIntegrator(Integrator):
             return a
         self.n_projections += 1
         return fs.Vinv @ wF
-
-    # ------------------------------------------------------- modal evaluation
-    def _row_value(self, seg, j, tau):
-        """Candidate ``j`` and its slope at ``tau`` (height of free row j, or minus a stuck
-        acceleration): one row of ``V`` against the modal coefficients, O(n)."""
-        fs = seg.fs
-        M, _ = seg.coefficients(tau)
-        if j < fs.nf:
-            wz = fs.VP[j] @ M
-            return seg.zeta0[j] + wz[1], wz[0]
-        k = j - fs.nf
-        t = seg.t_c + tau
-        g = math.sin(t) - 1.0 / self.Gamma
-        cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
-        acc = g + vals @ (fs.VP[cols] @ M[:, 0])
-        # w' = V (lam c_w + g s)
-        dacc = math.cos(t) + vals @ (fs.V[cols] @ (fs.lam * seg.velocity_amplitudes(tau) + g * fs.s))
-        return -acc, -dacc
 
     # ------------------------------------------------------------------ step
     def advance(self, t, w, zeta, stuck, t_stop, t_eval=()):
@@ -376,40 +488,47 @@ class PointIntegrator(Integrator):
             After ``max_steps`` search steps without an event (grazing contact).
         """
         Gamma, time_tol = self.Gamma, self.time_tol
-        free = ~np.asarray(stuck, dtype=bool)
-        key, fs = self._free_set(free)
-        F, S, nf = fs.F, fs.S, fs.nf
+        key, fs = self._free_set(np.asarray(stuck, dtype=bool))
+        F, nf = fs.F, fs.nf
         n = w.size
-        wF, zeta0 = w[F].astype(float), zeta[F].astype(float)
+        if fs.nS:
+            wF, zeta0 = np.asarray(w[F], dtype=float), np.asarray(zeta[F], dtype=float)
+        else:
+            wF, zeta0 = np.asarray(w, dtype=float), np.asarray(zeta, dtype=float)
         a = self._amplitudes(t, key, fs, wF)
-        abs_a = np.abs(a)
-        has_stuck = S.size > 0
         t_eval = np.asarray(t_eval, dtype=float)
         samples = []
         t0 = t
         tau = 0.0
         tau_stop = t_stop - t0
         floor = 16 * _EPS * max(1.0, abs(t0) + abs(t_stop))
-        zF = zeta0
         g0 = math.sin(t0) - 1.0 / Gamma
-        accF = fs.L_FF.dot(wF) + g0
-        eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
-        eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
-        at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
-        if at_plate.any():
+        seg = _Segment(fs, a, zeta0, t0, Gamma)
+        abs_w = np.abs(wF)
+        eps_w = 64 * _EPS * (1.0 + float(abs_w.max(initial=0.0)))
+        at_plate = abs_w <= eps_w
+        nodal = bool(at_plate.any())
+        if nodal:
+            at_plate &= zeta0 == 0.0
+            nodal = bool(at_plate.any())
+        if nodal:
             # released stuck nodes (a = 0, da/dt > 0): certified for 3 (da/dt) / D_3, and exempted
             # from contact detection until their height exceeds the modal round-off (a guard)
-            eps_a = 64 * _EPS * (1.0 + abs(g0) + fs.L_FF.absdot(np.abs(wF)))
+            accF = fs.L_FF.dot(wF) + g0
+            eps_z = 64 * _EPS * (1.0 + np.abs(zeta0).max(initial=0.0) + float(abs_w.max(initial=0.0)))
+            eps_a = 64 * _EPS * (1.0 + abs(g0) + fs.L_FF.absdot(abs_w))
             jerk = fs.L_FF.dot(accF) + math.cos(t0)
-            C = fs.absV @ (fs.abs_lam ** 3 * abs_a) + fs.forcing[:, 2]
+            C = fs.absV @ (fs.abs_lam ** 3 * seg.abs_a) + fs.forcing[:, 2]
             rel = at_plate & (jerk > 0.0) & (np.abs(accF) <= eps_a + time_tol * jerk)
-            delay = np.maximum(-accF[rel], 0.0) / jerk[rel]
-            self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
-                                                          np.cbrt(6.0 * eps_z / jerk[rel]))
-        release = self._guard[F] - t0
-        guarded = bool((release > 0.0).any())
-        fv, dv = np.empty((2, nf)), np.empty((2, nf))
-        seg = _Segment(fs, a, zeta0, t0, Gamma)
+            if rel.any():
+                delay = np.maximum(-accF[rel], 0.0) / jerk[rel]
+                guard = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel], np.cbrt(6.0 * eps_z / jerk[rel]))
+                self._guard[F[rel]] = guard
+                self._guard_max = max(self._guard_max, float(guard.max()))
+        guarded = self._guard_max > t0
+        if guarded:
+            release_half = 0.5 * (self._guard[F] - t0)
+        fo, po, Ao, L = fs.f_off, fs.fp_off, fs.A_off, fs.L
         steps = 0
         while True:
             steps += 1
@@ -417,51 +536,40 @@ class PointIntegrator(Integrator):
                 self.n_steps += steps - 1
                 raise RuntimeError(f"contact search made {self.max_steps} steps without an event "
                                    f"near t = {t0 + tau:.15g} (grazing contact?)")
-            t_now = t0 + tau
-            if tau > 0.0:
-                wF, zF, expo = seg.state(tau)
-                decay = expo * abs_a
+            if tau > 0.0 or not nodal:
+                out = seg.evaluate(tau)
+                f, fp, A2 = out[fo:fo + L], out[po:po + L], out[Ao:Ao + L]
             else:
-                decay = abs_a
-            g = math.sin(t_now) - 1.0 / Gamma
-            accF = fs.L_FF.dot(wF) + g
-            AB = (fs.absV_lam12 @ decay).reshape(2, nf) + fs.forcing_T
-            A, B = AB[0], AB[1]
-            # safe steps of the heights (row 0) and, for rising nodes (w >= 0 to round-off), of
-            # the velocities' lower bound (row 1): one pass over both
-            fv[0], fv[1] = zF, wF
-            dv[0], dv[1] = wF, accF
-            h2 = _safe_step(fv, dv, AB)
-            h_contact = np.maximum(h2[0], np.where(wF >= -eps_w, h2[1], 0.0))
+                # a node at rest on the plate: its exact nodal zeros, not V a (round-off)
+                f, fp, A2 = _start_rows(seg, wF, zeta0, g0)
+            # half safe steps of the velocity rows (first nf) and of the candidates (heights, then
+            # minus the stuck accelerations); a rising node (w >= 0 to round-off) is safe while
+            # either its height or its velocity's lower bound is
+            hh = _half_step(f, fp, A2)
+            hc = hh[nf:]
+            hz = hh[nf:2 * nf]
+            np.maximum(hz, hh[:nf], out=hz, where=f[:nf] >= -eps_w)
             if guarded:
-                h_contact = np.maximum(h_contact, release - tau)
-            if has_stuck:
-                # lift-off candidates: f = -a for stuck nodes
-                accS = g + fs.L_SF.dot(wF)
-                daccS = math.cos(t_now) + fs.L_SF.dot(accF)
-                CS = 1.0 + fs.L_SF.absdot(B)
-                f = np.concatenate((zF, -accS))
-                fp = np.concatenate((wF, -daccS))
-                Abound = np.concatenate((A, CS))
-                h = np.concatenate((h_contact, _safe_step(-accS, -daccS, CS)))
-            else:
-                f, fp, Abound, h = zF, wF, A, h_contact
-            if h.size == 0:
+                np.maximum(hz, release_half - 0.5 * tau, out=hz)
+            if hc.size == 0:
                 m, hm = 0, math.inf
             else:
-                m = int(np.argmin(h))
-                hm = float(h[m])
+                m = int(hc.argmin())
+                hm = 2.0 * float(hc[m])
             if tau + hm >= tau_stop:
                 self._sample(seg, tau, tau_stop, t_eval, samples, n)
                 self.n_steps += steps
                 if tau_stop > 0.0:
                     wF, zF, _ = seg.state(tau_stop)
+                else:
+                    wF, zF = np.array(wF), zeta0
                 self._carry = (t_stop, key, wF, seg.velocity_amplitudes(max(tau_stop, 0.0)))
                 wo, zo = _full(F, n, wF, zF)
                 return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
             event = None
-            if fp[m] < 0.0 and fp[m] ** 2 >= 2.5 * Abound[m] * max(f[m], 0.0):
-                event = self._bracket(seg, f, fp, Abound, h, tau, m)
+            fm, fpm = float(f[nf + m]), float(fp[nf + m])
+            if fpm < 0.0 and fpm * fpm >= 1.25 * float(A2[nf + m]) * max(fm, 0.0):
+                event = self._bracket(seg, f[nf:], fp[nf:], A2[nf:], hc, tau, m)
             if event is None and hm <= floor:
                 event = tau + hm
             if event is not None:
@@ -472,7 +580,7 @@ class PointIntegrator(Integrator):
                     if m < nf:
                         out.contact = F[[m]]
                     else:
-                        out.liftoff = S[[m - nf]]
+                        out.liftoff = fs.S[[m - nf]]
                 return out
             self._sample(seg, tau, tau + hm, t_eval, samples, n)
             tau += hm
@@ -487,56 +595,63 @@ class PointIntegrator(Integrator):
             wF, zF, _ = seg.state(te - t0)
             samples.append((float(te),) + _full(seg.fs.F, n, wF, zF))
 
-    def _values(self, seg, tau, group):
-        """Candidates ``group`` (free rows, then stuck rows) at local time ``tau``."""
-        fs, zeta0, t0 = seg.fs, seg.zeta0, seg.t_c
-        M, _ = seg.coefficients(tau)
-        out = np.empty(group.size)
-        isf = group < fs.nf
-        rows = group[isf]
-        out[isf] = zeta0[rows] + fs.VP[rows] @ M[:, 1]
-        if not isf.all():
-            k = group[~isf] - fs.nf
-            cols, vals = fs.L_SF.cols[k], fs.L_SF.vals[k]
-            wn = (fs.VP[cols.ravel()] @ M[:, 0]).reshape(cols.shape)
-            g = math.sin(t0 + tau) - 1.0 / self.Gamma
-            out[~isf] = -(g + (vals * wn).sum(axis=1))
-        return out
+    def _bracket(self, seg, f, fp, A2, hh, tau, m):
+        """Monotone brackets for the leading candidates; None if not all certified.
 
-    def _bracket(self, seg, f, fp, A, h, tau, m):
-        """Monotone brackets for the leading candidates; None if not all certified."""
+        ``f, fp, A2``: values, slopes and doubled bounds of the candidates, ``hh`` their half
+        safe steps, ``m`` the smallest.  The group is :func:`~.exact.candidate_group` (every
+        candidate whose safe step is below the largest certified root bound of the group,
+        grown until closed).
+        """
         fpos = np.maximum(f, 0.0)
-        disc = fp * fp - 2.0 * A * fpos
-        ok = (fp < 0.0) & (fp * fp >= 2.5 * A * fpos)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            upper = np.where(ok, 2.0 * fpos / (-fp + np.sqrt(np.maximum(disc, 0.0))), np.inf)
-        group = candidate_group(h, upper, ok, m)
-        if group is None:
-            return None
+        fp2 = fp * fp
+        ok = fp < 0.0
+        ok &= fp2 >= 1.25 * A2 * fpos                   # as the caller's test of m
+        root = fp2 - A2 * fpos
+        np.maximum(root, 0.0, out=root)
+        np.sqrt(root, out=root)
+        root -= fp
+        upper = np.full(f.size, np.inf)
+        np.divide(2.0 * fpos, root, out=upper, where=ok)
+        span = float(upper[m])
+        while True:
+            group = np.flatnonzero(hh < 0.5 * span)
+            if group.size == 0:
+                group = np.array([m])
+            if not ok[group].all():
+                return None
+            new_span = float(upper[group].max())
+            if new_span <= span:
+                break
+            span = new_span
         # earliest root: start from the smallest Newton estimate, then repair order
-        newton = fpos[group] / -fp[group]
-        lead = int(group[np.argmin(newton)])
-        tau_c = self._root(seg, lead, tau, tau + upper[lead], f[lead], fp[lead])
+        fpg = fp[group]
+        lead = int(group[int((fpos[group] / -fpg).argmin())])
+        tau_c = self._root(seg, lead, tau, tau + float(upper[lead]), float(f[lead]), float(fp[lead]))
         if group.size == 1:
             return tau_c
+        threshold = -self.time_tol * np.abs(fpg) - 64 * _EPS
+        rows = seg.fs.f_off + seg.fs.nf + group
         for _ in range(group.size):
-            vals = self._values(seg, tau_c, group)
-            early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
-            if not early.any():
+            vals = seg.evaluate(tau_c)[rows]        # the state at tau_c is _finish's too
+            if not (vals < threshold).any():
                 break
-            j = int(group[np.argmin(vals / -fp[group])])
-            tau_c = self._root(seg, j, tau, tau_c, f[j], fp[j])
+            j = int(group[int((vals / -fpg).argmin())])
+            tau_c = self._root(seg, j, tau, tau_c, float(f[j]), float(fp[j]))
         return tau_c
 
     def _root(self, seg, j, lo, hi, flo, dlo):
         """Root of candidate ``j``, strictly decreasing on [lo, hi] (``flo``, ``dlo``: value, slope at lo).
 
-        Safeguarded Newton (bisection whenever an iterate leaves the bracket), O(n) per iteration;
-        stops when the Newton correction is below ``1e-15 + 4 eps |tau|`` (brentq's tolerance in
-        ``method="exact"``) or the bracket is that narrow.
+        Safeguarded Newton (bisection whenever an iterate leaves the bracket), O(n) per iteration
+        (two rows of the segment matrix); stops when the Newton correction is below
+        ``1e-15 + 4 eps |tau|`` (brentq's tolerance in ``method="exact"``) or the bracket is that
+        narrow.
         """
         if flo <= 0.0:
             return lo
+        fs = seg.fs
+        rows = seg.K[[fs.f_off + fs.nf + j, fs.fp_off + fs.nf + j]]
         x, fx, dx = lo, flo, dlo
         for _ in range(200):
             tol = 1e-15 + 4 * _EPS * abs(x)
@@ -549,7 +664,8 @@ class PointIntegrator(Integrator):
                     xn = 0.5 * (lo + hi)
             else:
                 xn = 0.5 * (lo + hi)
-            fx, dx = self._row_value(seg, j, xn)
+            v = rows @ seg.y(xn)
+            fx, dx = float(v[0]), float(v[1])
             if fx == 0.0:
                 return xn
             if fx > 0.0:
@@ -563,22 +679,45 @@ class PointIntegrator(Integrator):
 
     def _finish(self, seg, key, tau_c, n, samples):
         """State at the event and the simultaneous sets (54)."""
-        fs, a, zeta0, t0 = seg.fs, seg.a, seg.zeta0, seg.t_c
+        fs, zeta0, t0 = seg.fs, seg.zeta0, seg.t_c
         F, S = fs.F, fs.S
         wF, zF, _ = seg.state(tau_c)
         t_c = t0 + tau_c
         g = math.sin(t_c) - 1.0 / self.Gamma
-        eps_z = 64 * _EPS * (1.0 + np.abs(zeta0) + fs.absV @ np.abs(a) * max(1.0, tau_c))
-        eps_a = 64 * _EPS * (1.0 + abs(g) + fs.L_SF.absdot(np.abs(wF)))
+        eps_z = 64 * _EPS * (1.0 + np.abs(zeta0) + fs.absV @ seg.abs_a * max(1.0, tau_c))
+        if fs.nS:
+            eps_a = 64 * _EPS * (1.0 + abs(g) + fs.L_SF.absdot(np.abs(wF)))
+        else:
+            eps_a = 64 * _EPS * (1.0 + abs(g))
         contact, liftoff = event_sets(t_c, wF, zF, F, S, fs.modes.L_FF, fs.modes.L_SF, self.Gamma,
                                       self.time_tol, eps_z, eps_a)
-        contact = contact[self._guard[contact] <= t_c]
+        if self._guard_max > t_c:
+            contact = contact[self._guard[contact] <= t_c]
         self._carry = (t_c, key, wF, seg.velocity_amplitudes(tau_c))
         wo, zo = _full(F, n, wF, zF)
         return Step(t_c, wo, zo, contact, liftoff, samples)
 
 
+def _start_rows(seg, wF, zeta0, g0):
+    """``(f, f', 2A)`` of :func:`_half_step` at the segment start from the nodal state.
+
+    Using the nodal values (not ``V a``) keeps a node released at rest exactly at
+    ``w = zeta = 0``; the bounds at ``tau = 0`` are the constant column of the bound rows.
+    """
+    fs = seg.fs
+    accF = fs.L_FF.dot(wF) + g0
+    A2 = seg.K[fs.A_off:fs.A_off + fs.L, fs.c_one]
+    if fs.nS:
+        t0 = seg.t_c
+        accS = g0 + fs.L_SF.dot(wF)
+        daccS = math.cos(t0) + fs.L_SF.dot(accF)
+        return np.concatenate((wF, zeta0, -accS)), np.concatenate((accF, wF, -daccS)), A2
+    return np.concatenate((wF, zeta0)), np.concatenate((accF, wF)), A2
+
+
 def _full(F, n, wF, zF):
+    if F.size == n:
+        return np.array(wF), np.array(zF)
     w = np.zeros(n)
     z = np.zeros(n)
     w[F] = wF
@@ -586,12 +725,18 @@ def _full(F, n, wF, zF):
     return w, z
 
 
-def _safe_step(f, fp, A):
-    r"""Largest h with :math:`f + f'h - Ah^2/2 > 0` on (0, h) (0 where f <= 0 and f' <= 0).
+def _half_step(f, fp, A2):
+    r"""Half the largest h with :math:`f + f'h - Ah^2/2 > 0` on (0, h), given ``A2 = 2A > 0``.
 
-    ``A > 0``.  Uses :math:`h = 2f/(\sqrt{f'^2 + 2Af} + |f'|)` for :math:`f' < 0` (no
-    cancellation) and :math:`(f' + \sqrt{f'^2 + 2Af})/A` otherwise.
+    0 where f <= 0 and f' <= 0.  With :math:`q = \sqrt{f'^2 + 2Af} + |f'|` (no cancellation)
+    the step is :math:`h = 2f/q` for :math:`f' < 0` and :math:`q/A` otherwise, so
+    :math:`h/2 = f/q` or :math:`q/(2A)` (one operation fewer; halving is exact).
     """
-    f2 = 2.0 * np.maximum(f, 0.0)
-    root = np.sqrt(fp * fp + A * f2)
-    return np.where(fp >= 0.0, (fp + root) / A, f2 / (root + np.abs(fp) + 1e-300))
+    fpos = np.maximum(f, 0.0)
+    q = fp * fp
+    q += A2 * fpos
+    np.sqrt(q, out=q)
+    q += np.abs(fp)
+    h = q / A2
+    np.divide(fpos, q, out=h, where=fp < 0.0)
+    return h
