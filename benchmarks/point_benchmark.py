@@ -14,11 +14,15 @@ and noisy.
 With ``--kink`` it also times a 41-node pinned kink over 2 periods (``exact`` against the new
 integrator) and checks that the event sequences agree.
 
+With ``--split`` it also reports, for ``point``, how the steady time per period divides into
+:meth:`PointIntegrator.advance` and the rest of the shared driver loop (impact rule, event log;
+``simulate`` run with a timing subclass registered in ``driver.METHODS`` for the measurement only).
+
 heyoka is a benchmark-only dependency (``pip install heyoka``); it is skipped when absent.
 
 Run::
 
-    PYTHONPATH=. python benchmarks/point_benchmark.py [--repeat 3] [--kink]    (from the repository root)
+    PYTHONPATH=. python benchmarks/point_benchmark.py [--repeat 3] [--kink] [--split]    (from the repository root)
 """
 import argparse
 import time
@@ -27,7 +31,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import tps_solver as tps
-from tps_solver.fda import flat_state, kink_state
+from tps_solver.fda import driver, flat_state, kink_state
+from tps_solver.fda.point import PointIntegrator
 
 GAMMA, E, M = 2.5, 0.45, 2
 LENGTH = 10.0
@@ -80,6 +85,47 @@ class Heyoka:
             s[:n][con] = -E * wv[con]
             s[n:][con] = 0.0
         return np.rec.fromarrays([np.array(times)], names="t")
+
+
+class _TimedPoint(PointIntegrator):
+    """``PointIntegrator`` accumulating the CPU time of :meth:`advance` in ``spent[0]``."""
+
+    spent = [0.0]
+
+    def advance(self, *args, **kwargs):
+        tic = time.process_time()
+        try:
+            return super().advance(*args, **kwargs)
+        finally:
+            self.spent[0] += time.process_time() - tic
+
+
+def split_table(repeat):
+    """Steady ms/period of ``point``: total, inside ``advance``, and the driver loop around it."""
+    fl = tps.FlatLayer(GAMMA, M, E)
+    t0 = fl.t0 + 1e-6
+    driver.METHODS["point-timed"] = _TimedPoint
+    try:
+        print("\n| nodes | total | advance | driver loop |")
+        print("|---|---|---|---|")
+        for n in (21, 101):
+            lat = tps.Lattice.planar(n_nodes=n, length=LENGTH)
+            w, z = flat_state(lat, fl, t0)
+            best = {}
+            for _ in range(repeat):
+                for periods in (10, 30):
+                    _TimedPoint.spent[0] = 0.0
+                    tic = time.process_time()
+                    tps.simulate(lat, GAMMA, E, w, z, t_start=t0, t_end=t0 + periods * fl.period + 0.5,
+                                 method="point-timed")
+                    total = time.process_time() - tic
+                    if total < best.get(periods, (np.inf,))[0]:
+                        best[periods] = (total, _TimedPoint.spent[0])
+            tot = 1e3 * (best[30][0] - best[10][0]) / 20
+            adv = 1e3 * (best[30][1] - best[10][1]) / 20
+            print(f"| {n} | {tot:.3f} | {adv:.3f} | {tot - adv:.3f} |")
+    finally:
+        del driver.METHODS["point-timed"]
 
 
 def contact_error(events, fl):
@@ -155,9 +201,12 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--kink", action="store_true")
+    parser.add_argument("--split", action="store_true")
     args = parser.parse_args()
     with threadpool_limits(1):
         flat_table(args.repeat)
+        if args.split:
+            split_table(args.repeat)
         if args.kink:
             kink_check(max(1, args.repeat // 2))
 

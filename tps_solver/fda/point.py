@@ -24,23 +24,33 @@ certified search, same contact sets (54)):
   flat to round-off instead of accumulating projection errors event after event.
   The heights stay nodal (:math:`\underline\zeta_F(t_c)` is never projected).
 * **O(n) single-node evaluations.**  The root polish is a safeguarded Newton iteration
-  on one candidate: its value and slope are one row of :math:`V` against the modal
-  coefficients (:math:`\zeta_j' = w_j`; for a stuck node, the two lattice neighbours of
-  :math:`a_j = g + (\underline L\underline w)_j`).
+  on one candidate: its value and slope are two rows of the evaluation matrix ``K``
+  below against the same vector (:math:`\zeta_j' = w_j`; for a stuck node, minus
+  :math:`a_j = g + (\underline L\underline w)_j` and its time derivative).
 * **Work per free set, once.**  The forcing part of the derivative bounds, the modal
-  data and the banded rows of :math:`\underline L` (at most three entries per row on
-  a one-dimensional lattice) are built once per free set and cached; products with
-  :math:`\underline L` use the band, not a dense matrix.
+  data, the banded rows of :math:`\underline L` (at most three entries per row on a
+  one-dimensional lattice) and the templates of the evaluation matrix below are built once
+  per free set and cached.
+* **One product per search step.**  Every quantity the search needs -- velocities,
+  heights, free accelerations :math:`\underline L_{FF}\underline w_F + g`, the derivative
+  bounds :math:`D_1, D_2` and, with stuck nodes, their accelerations, jerks and bounds --
+  is a fixed linear combination of :math:`e^{\lambda\tau} - 1`
+  (:math:`\tau^2\varphi_2(\lambda\tau)`) and a few scalars of :math:`\tau`, so it is one
+  row of a matrix ``K`` built per segment (:class:`_Segment`), and a step is ``K @ y(tau)``
+  plus the safe-step formula on three contiguous slices of the result: a dozen numpy calls,
+  which is what a step costs on a small lattice.
 * **Exact uniform forcing.**  With no stuck node :math:`\underline\sigma_F` is a null vector
   of :math:`\underline L_{FF}`, so gravity forces the zero modes only; the round-off
   projections of :math:`V^{-1}\underline\sigma_F` on the other modes are dropped, and the
   derivative bounds of a zero mode use :math:`|g| \le 1 + 1/\Gamma`, :math:`|g^{(p)}| \le 1`
   instead of the general factor :math:`(m + 1)(1 + 1/\Gamma)` (larger safe steps).
 
-Cost: a search step is one product with ``[V | P]`` (heights and velocities of all free
-nodes) and one with :math:`|V|` (the bounds), two BLAS calls of :math:`O(n^2)` flops; the
-event itself is the rank-:math:`k` update (:math:`O(nk)`), a polish of :math:`O(n)` per
-Newton step, and the shared contact-set rule :func:`~.events.event_sets`.  A new free set
+Cost: a search step is one product of ``K`` (:math:`5n_F` rows, :math:`3n_F + 3n_S` with
+stuck nodes, by :math:`n_F + 9` columns; :math:`2n_F + 9` when gravity also forces
+non-zero modes) with a vector, :math:`O(n^2)` flops; a segment costs the scaling of the
+per-free-set templates by the modal amplitudes (:math:`O(n^2)`); the event itself is the
+rank-:math:`k` update (:math:`O(nk)`), a polish of :math:`O(n)` per Newton step (two rows
+of ``K``), and the shared contact-set rule :func:`~.events.event_sets`.  A new free set
 (sticking, lift-off) costs one decomposition (cached) and one projection.
 
 Contact search (docs/design.md, hazard 4 and 5)
@@ -52,7 +62,10 @@ in :math:`(t, t + h_j)` where :math:`f_j + f_j'h - A_jh^2/2 > 0`, so no crossing
 single or double -- is stepped over; a candidate is bracketed once it is certified
 strictly decreasing up to its root bound, the earliest root is polished to
 :math:`10^{-15}` in the local time, and every candidate reaching zero within
-``time_tol`` of it joins the contact set (54).
+``time_tol`` of it joins the contact set (54).  The bounds are evaluated as
+:math:`(|V||\lambda|^m\,\mathrm{diag}|a|)(e^{\lambda\tau} - 1) + |V||\lambda|^m|a| + F_m`
+(one product with the rest of ``K``); their constant part is enlarged by the relative
+round-off of that sum, so the computed bound is not below the exact one.
 """
 import math
 from collections import OrderedDict
@@ -217,6 +230,8 @@ class _FreeSet:
             blocks = [(0, 2 * nf, "w"), (2 * nf, 3 * nf, "z"), (3 * nf, 5 * nf, "abs")]
         if self.zero_only:                             # the same coefficients a for 'w' and 'z'
             blocks = [(r0, r1, "w" if kind == "z" else kind) for r0, r1, kind in blocks]
+        for M in (K, TE):
+            M[np.abs(M) < 1e-300] = 0.0               # no sub-normal arithmetic in the products
         merged = []
         for r0, r1, kind in blocks:
             if merged and merged[-1][2] == kind and merged[-1][1] == r0:
@@ -332,7 +347,7 @@ class _Segment:
         :math:`\\sigma_2 = -\\sin t_c\\sin\\tau - \\cos t_c\\,\\mathrm{vers}\\,\\tau`
         (:math:`u\\sin\\tau - v\\,\\mathrm{vers}\\,\\tau` regrouped).
         """
-        y = self.y(tau)
+        self.y(tau)                         # fills _yE = e^{lam tau} - 1 and _ys
         cw = self._yE * self.cw
         cw += self.a
         cw += self.fs.Sm @ self._ys
@@ -568,7 +583,7 @@ class PointIntegrator(Integrator):
                 return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
             event = None
             fm, fpm = float(f[nf + m]), float(fp[nf + m])
-            if fpm < 0.0 and fpm * fpm >= 1.25 * float(A2[nf + m]) * max(fm, 0.0):
+            if fpm < 0.0 and fpm * fpm >= 1.25 * (float(A2[nf + m]) * max(fm, 0.0)):
                 event = self._bracket(seg, f[nf:], fp[nf:], A2[nf:], hc, tau, m)
             if event is None and hm <= floor:
                 event = tau + hm
@@ -605,14 +620,19 @@ class PointIntegrator(Integrator):
         """
         fpos = np.maximum(f, 0.0)
         fp2 = fp * fp
+        Af = A2 * fpos
         ok = fp < 0.0
-        ok &= fp2 >= 1.25 * A2 * fpos                   # as the caller's test of m
-        root = fp2 - A2 * fpos
+        ok &= fp2 >= 1.25 * Af                           # f'^2 >= 2.5 A f, as the caller's test of m
+        root = fp2 - Af
         np.maximum(root, 0.0, out=root)
         np.sqrt(root, out=root)
         root -= fp
-        upper = np.full(f.size, np.inf)
+        # root bounds of the certified candidates (only those are read: a group with an
+        # uncertified member returns None first)
+        upper = np.empty(f.size)
         np.divide(2.0 * fpos, root, out=upper, where=ok)
+        if not ok[m]:
+            return None
         span = float(upper[m])
         while True:
             group = np.flatnonzero(hh < 0.5 * span)
@@ -621,7 +641,7 @@ class PointIntegrator(Integrator):
             if not ok[group].all():
                 return None
             new_span = float(upper[group].max())
-            if new_span <= span:
+            if new_span <= span or group.size == hh.size:   # closed (or nothing left to add)
                 break
             span = new_span
         # earliest root: start from the smallest Newton estimate, then repair order
