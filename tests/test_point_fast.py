@@ -296,3 +296,30 @@ def test_derivative_bounds_hold_for_all_later_times(stuck_nodes):
             ratio = np.abs(np.vstack((fs.V @ dcw, fs.V @ d2cw))) / D
             worst = max(worst, float(ratio.max()))
     assert worst <= 1.0 and worst > 0.3          # valid, and not vacuous
+
+
+def test_proposed_search_points_on_a_periodic_orbit_give_the_same_events():
+    # on the flat orbit each segment repeats the last one: from the third period the search
+    # points proposed by the previous segment are evaluated in one product; the events and the
+    # final state agree with the purely sequential search
+    fl = _flat()
+    lat = tps.Lattice.planar(n_nodes=21, length=10.0)
+    t0 = fl.t0 + 1e-6
+    w, z = flat_state(lat, fl, t0)
+    t_end = t0 + 6 * fl.period + 0.5
+
+    class Sequential(PointIntegrator):
+        def _free_set(self, stuck):
+            key, fs = super()._free_set(stuck)
+            fs.confirmed = False
+            return key, fs
+
+    a = _run(lat, GAMMA, E, w, z, t0, t_end)
+    b = _run(lat, GAMMA, E, w, z, t0, t_end, integrator=Sequential(lat, GAMMA, E))
+    fs = next(iter(a[4]._cache.values()))
+    assert fs.confirmed and len(fs.proposal) == 4          # proposals in use (4 points after 0)
+    assert a[4].n_steps == b[4].n_steps                      # the same number of search points
+    np.testing.assert_array_equal(a[0].node, b[0].node)
+    np.testing.assert_allclose(a[0].t, b[0].t, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(a[0].t[::21], fl.t0 + fl.period * np.arange(1, 7), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(a[2], b[2], rtol=0, atol=1e-14)

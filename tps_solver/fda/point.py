@@ -39,6 +39,13 @@ certified search, same contact sets (54)):
   row of a matrix ``K`` built per segment (:class:`_Segment`), and a step is ``K @ y(tau)``
   plus the safe-step formula on three contiguous slices of the result: a dozen numpy calls,
   which is what a step costs on a small lattice.
+* **Repeated searches in one product.**  Each segment leaves the natural ends
+  :math:`\tau_i + h_i` of its search steps (moved earlier by :math:`(i + 1)10^{-11}(1 + \tau)`)
+  as a proposal for the next segment of its free set; once two consecutive segments propose
+  the same points (a periodic orbit), the next search evaluates all proposed points in one
+  product ``K @ Y`` and walks through them while each lies within the certified step of the
+  one before (otherwise it continues step by step from there), so the certificate and the
+  event rules are unchanged.
 * **Exact uniform forcing.**  With no stuck node :math:`\underline\sigma_F` is a null vector
   of :math:`\underline L_{FF}`, so gravity forces the zero modes only; the round-off
   projections of :math:`V^{-1}\underline\sigma_F` on the other modes are dropped, and the
@@ -168,6 +175,9 @@ class _FreeSet:
         self.L_FF = _Band(md.L_FF)
         self.L_SF = _Band(md.L_SF)
         self._layout()
+        # search points proposed by the last segment of this free set (see PointIntegrator.advance)
+        # (used once two consecutive segments proposed the same points)
+        self.proposal, self.confirmed = None, False
 
     def _layout(self):
         """Row offsets, column indices and the state-independent parts of the fused matrix."""
@@ -337,6 +347,28 @@ class _Segment:
             self._out = self.K @ self.y(tau)
             self._out_tau = tau
         return self._out
+
+    def evaluate_many(self, taus):
+        """``K @ Y`` with the columns ``y(tau)`` for the local times ``taus`` (a list), shape (rows, k)."""
+        fs = self.fs
+        nf, b = fs.nf, fs.b
+        k = len(taus)
+        Y = np.empty((fs.ncol, k))
+        z = np.multiply.outer(fs.lam, taus)
+        np.expm1(z, out=Y[:nf])
+        if not self.zero_only:
+            Y[nf:b] = np.square(taus) * phi2_expm1(z, Y[:nf])
+        c, sn = self.cs
+        cols = []
+        for tau in taus:
+            st = math.sin(tau)
+            vers = 2.0 * math.sin(0.5 * tau) ** 2
+            zv = st - tau if self.zero_only else st
+            t = self.t_c + tau
+            cols.append((c * st - sn * vers, -sn * st - c * vers, tau, c * vers + sn * zv, -sn * vers + c * zv,
+                         -0.5 * tau * tau, math.sin(t) - self.inv_gamma, math.cos(t), 1.0))
+        Y[b:] = np.array(cols).T
+        return self.K @ Y
 
     def velocity_amplitudes(self, tau):
         """Modal amplitudes of ``w_F`` at ``tau`` (the state carried to the next segment).
@@ -545,32 +577,46 @@ class PointIntegrator(Integrator):
             release_half = 0.5 * (self._guard[F] - t0)
         fo, po, Ao, L = fs.f_off, fs.fp_off, fs.A_off, fs.L
         steps = 0
+        # search points and their natural ends tau + h (the proposal for the next segment of
+        # this free set: on a periodic orbit it is the same search, evaluated in one product)
+        visited, ends = [], []
+        batch = None
+        if fs.confirmed and not nodal and not guarded:
+            taus = [0.0] + [p for p in fs.proposal if p < tau_stop]
+            if len(taus) >= 3:
+                batch = _Batch(seg, taus, eps_w)
+        i = 0
         while True:
             steps += 1
             if steps > self.max_steps:
                 self.n_steps += steps - 1
                 raise RuntimeError(f"contact search made {self.max_steps} steps without an event "
                                    f"near t = {t0 + tau:.15g} (grazing contact?)")
-            if tau > 0.0 or not nodal:
-                out = seg.evaluate(tau)
-                f, fp, A2 = out[fo:fo + L], out[po:po + L], out[Ao:Ao + L]
+            if batch is not None:
+                f, fp, A2, hh = batch.f[:, i], batch.fp[:, i], batch.A2[:, i], batch.hh[:, i]
+                hc = hh[nf:]
+                m, hm = batch.m[i], batch.hm[i]
             else:
-                # a node at rest on the plate: its exact nodal zeros, not V a (round-off)
-                f, fp, A2 = _start_rows(seg, wF, zeta0, g0)
-            # half safe steps of the velocity rows (first nf) and of the candidates (heights, then
-            # minus the stuck accelerations); a rising node (w >= 0 to round-off) is safe while
-            # either its height or its velocity's lower bound is
-            hh = _half_step(f, fp, A2)
-            hc = hh[nf:]
-            hz = hh[nf:2 * nf]
-            np.maximum(hz, hh[:nf], out=hz, where=f[:nf] >= -eps_w)
-            if guarded:
-                np.maximum(hz, release_half - 0.5 * tau, out=hz)
-            if hc.size == 0:
-                m, hm = 0, math.inf
-            else:
-                m = int(hc.argmin())
-                hm = 2.0 * float(hc[m])
+                if tau > 0.0 or not nodal:
+                    out = seg.evaluate(tau)
+                    f, fp, A2 = out[fo:fo + L], out[po:po + L], out[Ao:Ao + L]
+                else:
+                    # a node at rest on the plate: its exact nodal zeros, not V a (round-off)
+                    f, fp, A2 = _start_rows(seg, wF, zeta0, g0)
+                # half safe steps of the velocity rows (first nf) and of the candidates (heights,
+                # then minus the stuck accelerations); a rising node (w >= 0 to round-off) is safe
+                # while either its height or its velocity's lower bound is
+                hh = _half_step(f, fp, A2)
+                hc = hh[nf:]
+                hz = hh[nf:2 * nf]
+                np.maximum(hz, hh[:nf], out=hz, where=f[:nf] >= -eps_w)
+                if guarded:
+                    np.maximum(hz, release_half - 0.5 * tau, out=hz)
+                if hc.size == 0:
+                    m, hm = 0, math.inf
+                else:
+                    m = int(hc.argmin())
+                    hm = 2.0 * float(hc[m])
             if tau + hm >= tau_stop:
                 self._sample(seg, tau, tau_stop, t_eval, samples, n)
                 self.n_steps += steps
@@ -590,6 +636,12 @@ class PointIntegrator(Integrator):
             if event is not None:
                 self._sample(seg, tau, event, t_eval, samples, n)
                 self.n_steps += steps
+                new = _proposal(ends)
+                if batch is None:       # a repeated search confirms the proposal
+                    fs.confirmed = _same_points(new, fs.proposal)
+                elif i + 1 < batch.k:   # the proposal went past the event
+                    fs.confirmed = False
+                fs.proposal = new
                 out = self._finish(seg, key, event, n, samples)
                 if out.contact.size == 0 and out.liftoff.size == 0:     # guarantee progress
                     if m < nf:
@@ -597,8 +649,18 @@ class PointIntegrator(Integrator):
                     else:
                         out.liftoff = fs.S[[m - nf]]
                 return out
-            self._sample(seg, tau, tau + hm, t_eval, samples, n)
-            tau += hm
+            nxt = tau + hm
+            visited.append(tau)
+            ends.append(nxt)
+            if batch is not None:
+                i += 1
+                if i < batch.k and batch.taus[i] <= nxt:       # certified up to the next point
+                    nxt = batch.taus[i]
+                else:
+                    fs.confirmed = False
+                    batch = None
+            self._sample(seg, tau, nxt, t_eval, samples, n)
+            tau = nxt
 
     # ------------------------------------------------------------ internals
     def _sample(self, seg, tau_a, tau_b, t_eval, samples, n):
@@ -716,6 +778,46 @@ class PointIntegrator(Integrator):
         self._carry = (t_c, key, wF, seg.velocity_amplitudes(tau_c))
         wo, zo = _full(F, n, wF, zF)
         return Step(t_c, wo, zo, contact, liftoff, samples)
+
+
+class _Batch:
+    """The search rows at proposed points ``taus`` (one product ``K @ Y``) and their safe steps.
+
+    Attributes ``f, fp, A2, hh`` (shape (L, k)) are :func:`_half_step`'s inputs and output per
+    column, ``m`` and ``hm`` (lists) each column's smallest candidate and its (full) step.
+    """
+
+    def __init__(self, seg, taus, eps_w):
+        fs = seg.fs
+        nf, L = fs.nf, fs.L
+        self.taus, self.k = taus, len(taus)
+        out = seg.evaluate_many(taus)
+        fo, po, Ao = fs.f_off, fs.fp_off, fs.A_off
+        self.f, self.fp, self.A2 = out[fo:fo + L], out[po:po + L], out[Ao:Ao + L]
+        hh = _half_step(self.f, self.fp, self.A2)
+        hz = hh[nf:2 * nf]
+        np.maximum(hz, hh[:nf], out=hz, where=self.f[:nf] >= -eps_w)
+        hc = hh[nf:]
+        m = hc.argmin(axis=0)
+        self.hh = hh
+        self.hm = (2.0 * hc[m, np.arange(self.k)]).tolist()
+        self.m = m.tolist()
+
+
+def _proposal(ends):
+    """Search points for the next segment of a free set: the natural ends ``tau + h`` of this
+    one, each moved earlier by ``(i + 1) 1e-11 (1 + tau)`` so that on a repeated (periodic)
+    segment every proposed point lies within the certified step of the one before it."""
+    if len(ends) < 2:
+        return None
+    return [e - (i + 1) * 1e-11 * (1.0 + e) for i, e in enumerate(ends)]
+
+
+def _same_points(a, b):
+    """Whether two proposals agree to 1e-9 (relative): the segment repeats."""
+    if a is None or b is None or len(a) != len(b):
+        return False
+    return all(abs(x - y) <= 1e-9 * (1.0 + abs(y)) for x, y in zip(a, b))
 
 
 def _start_rows(seg, wF, zeta0, g0):
