@@ -177,7 +177,7 @@ class _FreeSet:
         self._layout()
         # search points proposed by the last segment of this free set (see PointIntegrator.advance)
         # (used once two consecutive segments proposed the same points)
-        self.proposal, self.confirmed = None, False
+        self.proposal, self.confirmed, self.last_root = None, False, None
 
     def _layout(self):
         """Row offsets, column indices and the state-independent parts of the fused matrix."""
@@ -630,7 +630,9 @@ class PointIntegrator(Integrator):
             event = None
             fm, fpm = float(f[nf + m]), float(fp[nf + m])
             if fpm < 0.0 and fpm * fpm >= 1.25 * (float(A2[nf + m]) * max(fm, 0.0)):
-                event = self._bracket(seg, f[nf:], fp[nf:], A2[nf:], hc, tau, m)
+                # on a repeated segment the last root is the polish's first iterate
+                hint = fs.last_root if batch is not None else None
+                event = self._bracket(seg, f[nf:], fp[nf:], A2[nf:], hc, tau, m, hint)
             if event is None and hm <= floor:
                 event = tau + hm
             if event is not None:
@@ -642,6 +644,7 @@ class PointIntegrator(Integrator):
                 elif i + 1 < batch.k:   # the proposal went past the event
                     fs.confirmed = False
                 fs.proposal = new
+                fs.last_root = event
                 out = self._finish(seg, key, event, n, samples)
                 if out.contact.size == 0 and out.liftoff.size == 0:     # guarantee progress
                     if m < nf:
@@ -672,11 +675,12 @@ class PointIntegrator(Integrator):
             wF, zF, _ = seg.state(te - t0)
             samples.append((float(te),) + _full(seg.fs.F, n, wF, zF))
 
-    def _bracket(self, seg, f, fp, A2, hh, tau, m):
+    def _bracket(self, seg, f, fp, A2, hh, tau, m, hint=None):
         """Monotone brackets for the leading candidates; None if not all certified.
 
         ``f, fp, A2``: values, slopes and doubled bounds of the candidates, ``hh`` their half
-        safe steps, ``m`` the smallest.  The group is :func:`~.exact.candidate_group` (every
+        safe steps, ``m`` the smallest; ``hint``: a first iterate for the polish of the lead
+        candidate (used if inside its bracket).  The group is :func:`~.exact.candidate_group` (every
         candidate whose safe step is below the largest certified root bound of the group,
         grown until closed).
         """
@@ -709,7 +713,7 @@ class PointIntegrator(Integrator):
         # earliest root: start from the smallest Newton estimate, then repair order
         fpg = fp[group]
         lead = int(group[int((fpos[group] / -fpg).argmin())])
-        tau_c = self._root(seg, lead, tau, tau + float(upper[lead]), float(f[lead]), float(fp[lead]))
+        tau_c = self._root(seg, lead, tau, tau + float(upper[lead]), float(f[lead]), float(fp[lead]), hint)
         if group.size == 1:
             return tau_c
         threshold = -self.time_tol * np.abs(fpg) - 64 * _EPS
@@ -722,22 +726,25 @@ class PointIntegrator(Integrator):
             tau_c = self._root(seg, j, tau, tau_c, float(f[j]), float(fp[j]))
         return tau_c
 
-    def _root(self, seg, j, lo, hi, flo, dlo):
+    def _root(self, seg, j, lo, hi, flo, dlo, hint=None):
         """Root of candidate ``j``, strictly decreasing on [lo, hi] (``flo``, ``dlo``: value, slope at lo).
 
         Safeguarded Newton (bisection whenever an iterate leaves the bracket), O(n) per iteration
-        (two rows of the segment matrix); stops when the Newton correction is below
-        ``1e-15 + 4 eps |tau|`` (brentq's tolerance in ``method="exact"``) or the bracket is that
-        narrow.
+        (two rows of the segment matrix), from ``hint`` if it lies in (lo, hi), else from ``lo``;
+        stops when the Newton correction is below ``1e-15 + 4 eps |tau|`` (brentq's tolerance in
+        ``method="exact"``) or the bracket is that narrow.
         """
         if flo <= 0.0:
             return lo
         fs = seg.fs
         rows = seg.K[[fs.f_off + fs.nf + j, fs.fp_off + fs.nf + j]]
         x, fx, dx = lo, flo, dlo
+        first = hint if hint is not None and lo < hint < hi else None
         for _ in range(200):
             tol = 1e-15 + 4 * _EPS * abs(x)
-            if dx < 0.0:
+            if first is not None:
+                xn, first = first, None
+            elif dx < 0.0:
                 step = -fx / dx
                 if abs(step) <= tol:
                     return min(max(x + step, lo), hi)
