@@ -577,9 +577,9 @@ class PointIntegrator(Integrator):
             release_half = 0.5 * (self._guard[F] - t0)
         fo, po, Ao, L = fs.f_off, fs.fp_off, fs.A_off, fs.L
         steps = 0
-        # search points and their natural ends tau + h (the proposal for the next segment of
-        # this free set: on a periodic orbit it is the same search, evaluated in one product)
-        visited, ends = [], []
+        # natural ends tau + h of the search steps (the proposal for the next segment of this
+        # free set: on a periodic orbit it is the same search, evaluated in one product)
+        ends = []
         batch = None
         if fs.confirmed and not nodal and not guarded:
             taus = [0.0] + [p for p in fs.proposal if p < tau_stop]
@@ -653,7 +653,6 @@ class PointIntegrator(Integrator):
                         out.liftoff = fs.S[[m - nf]]
                 return out
             nxt = tau + hm
-            visited.append(tau)
             ends.append(nxt)
             if batch is not None:
                 i += 1
