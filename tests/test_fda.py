@@ -221,6 +221,57 @@ def test_diffused_impact_with_tiny_length_is_the_point_rule():
     np.testing.assert_allclose(a.zeta, b.zeta, rtol=0, atol=1e-12)
 
 
+# ------------------------------------------------ event layer (tps_solver.fda.events)
+def test_event_log_blocks_expand_to_one_record_per_node():
+    from tps_solver.fda.events import EVENT_DTYPE, EventLog
+    log = EventLog(0.0, max_events_per_cycle=4)
+    log.add(1.0, np.array([3, 1]), "impact", np.array([-0.5, -0.25]))
+    log.add(1.0, np.array([], dtype=int), "stick", np.array([]))          # an empty block logs nothing
+    log.add(2.0, 2, "stick", -1e-7)
+    log.add(3.0, np.array([0, 4]), "liftoff", 0.0)                           # one velocity for all
+    assert log.exceeded and len(log) == 5                                    # 5 events in the first cycle
+    ref = [(1.0, 3, "impact", -0.5), (1.0, 1, "impact", -0.25), (2.0, 2, "stick", -1e-7),
+           (3.0, 0, "liftoff", 0.0), (3.0, 4, "liftoff", 0.0)]
+    assert log.records == ref
+    arr = log.to_array()
+    assert isinstance(arr, np.recarray) and arr.dtype == EVENT_DTYPE
+    assert arr.dtype.names == ("t", "node", "kind", "w_before")
+    assert arr.tobytes() == np.array(ref, dtype=EVENT_DTYPE).tobytes()
+    assert arr.kind.tolist() == ["impact", "impact", "stick", "liftoff", "liftoff"]
+    log.add(2 * math.pi + 0.5, 1, "impact", -0.1)                            # a new cycle, a new count
+    assert not log.exceeded
+    empty = EventLog(0.0, 1).to_array()
+    assert empty.shape == (0,) and empty.dtype == EVENT_DTYPE
+    with pytest.raises(ValueError, match="w_before"):
+        log.add(3.0, np.array([0, 1, 2]), "impact", np.array([-1.0, -2.0]))
+
+
+def test_apply_contacts_mixed_set_logs_impacts_then_sticks():
+    # 3 nodes, dx = 1, Neumann ends: L = [[-2, 2, 0], [1, -2, 1], [0, 2, -2]]; t = 0, g = -0.4.
+    # Node 0 rebounds at w = 1; nodes 1, 2 land slower than 0.1 and are set to rest: node 1
+    # feels g + w_0 = 0.6 > 0 and stays free (an impact), node 2 feels g = -0.4 and sticks.
+    from tps_solver.fda.events import EventLog, apply_contacts, point_impact
+    lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+    w, zeta, stuck = np.array([-2.0, -0.05, -0.01]), np.zeros(3), np.zeros(3, dtype=bool)
+    log = EventLog(0.0, 100)
+    sticks = apply_contacts(0.0, w, zeta, stuck, np.array([0, 1, 2]), lat, 2.5, 0.5, point_impact, 0.1, log)
+    assert sticks.tolist() == [2]
+    assert w.tolist() == [1.0, 0.0, 0.0] and stuck.tolist() == [False, False, True]
+    assert log.records == [(0.0, 0, "impact", -2.0), (0.0, 1, "impact", -0.05), (0.0, 2, "stick", -0.01)]
+
+
+@pytest.mark.parametrize("t, on_plate", [(0.0, True), (math.pi / 2, False)])
+def test_event_sets_node_at_rest_on_the_plate(t, on_plate):
+    # w = zeta = 0 everywhere: a contact iff the free acceleration g(t) = sin t - 1/Gamma < 0
+    from tps_solver.fda.events import event_sets
+    L = tps.Lattice.planar(n_nodes=3, length=2.0).operator
+    F, S = np.arange(3), np.arange(0)
+    args = (t, np.zeros(3), np.zeros(3), F, S, L, L[:0], GAMMA, 1e-12, 1e-14, 1e-14)
+    for kw in ({}, {"absL_FF": np.abs(L)}):
+        contact, liftoff = event_sets(*args, **kw)
+        assert contact.tolist() == ([0, 1, 2] if on_plate else []) and liftoff.size == 0
+
+
 # ------------------------------------------------ cross-integrator, kink
 def _agree_on_kink(n_nodes, stick_velocity):
     fl = stable_flat()

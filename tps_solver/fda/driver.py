@@ -188,7 +188,12 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
                 contact, liftoff = step.contact, step.liftoff
                 if contact.size:
                     apply_contacts(t, w, zeta, stuck, contact, lattice, Gamma, e, rule, stick_velocity, log)
-                    liftoff = np.union1d(liftoff, pulled_off(t, w, stuck, lattice, Gamma))
+                    # with no stuck node (before or after the set) there is nothing to pull off and
+                    # ``liftoff`` (a subset of the stuck nodes) is empty
+                    if stuck.any():
+                        pulled = pulled_off(t, w, stuck, lattice, Gamma)
+                        if pulled.size or liftoff.size > 1:
+                            liftoff = np.union1d(liftoff, pulled)
                 if liftoff.size:
                     liftoff = liftoff[stuck[liftoff]]
                     apply_liftoff(t, w, zeta, stuck, liftoff, log)
@@ -220,4 +225,4 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
 
 def _progress(t, t_start, t_end, log):
     return Bunch(t=float(t), t_start=t_start, t_end=t_end,
-                 fraction=float(min(1.0, (t - t_start) / (t_end - t_start))), n_events=len(log.records))
+                 fraction=float(min(1.0, (t - t_start) / (t_end - t_start))), n_events=len(log))

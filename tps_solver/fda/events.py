@@ -40,6 +40,7 @@ __all__ = ["EVENT_DTYPE", "point_impact", "diffused_impact", "make_impact_rule",
 
 EVENT_DTYPE = np.dtype([("t", float), ("node", np.int64), ("kind", "U7"), ("w_before", float)])
 IMPACTS = ("point", "diffused")
+_EPS = np.finfo(float).eps
 
 
 def point_impact(w_minus, contact, e, lattice, free):
@@ -135,6 +136,9 @@ def make_impact_rule(impact="point", rho_c=None):
 class EventLog:
     """Time-ordered event records with a per-cycle budget (docs/design.md, hazard 4).
 
+    The records are stored one block per :meth:`add` call (one contact set: arrays of nodes
+    and velocities) and expanded to one row per node only by :meth:`to_array`.
+
     Parameters
     ----------
     t_start : float
@@ -149,40 +153,75 @@ class EventLog:
     >>> log.exceeded
     False
     >>> log.add(2.0, 1, "stick", -0.01)          # a third event in the first cycle
-    >>> log.exceeded, log.to_array().node.tolist()
-    (True, [0, 2, 1])
+    >>> log.exceeded, log.to_array().node.tolist(), len(log)
+    (True, [0, 2, 1], 3)
     >>> log.add(7.0, 1, "liftoff", 0.0)          # the next cycle starts a new count
     >>> log.exceeded
     False
+    >>> log.records[:2]
+    [(1.0, 0, 'impact', -0.5), (1.0, 2, 'impact', -0.4)]
     """
 
     def __init__(self, t_start, max_events_per_cycle):
-        self.records = []
         self.t_start = t_start
         self.max_per_cycle = max_events_per_cycle
         self._cycle = 0
         self._count = 0
+        self._n = 0
+        self._t, self._nodes, self._kinds, self._w = [], [], [], []
 
     def add(self, t, nodes, kind, w_before):
+        """Log the events of ``nodes`` (int or ndarray of int) at time ``t``, all of one ``kind``.
+
+        ``w_before`` (float or ndarray of float) holds one velocity per node, or one for all.
+        """
         cycle = int(math.floor((t - self.t_start) / (2.0 * math.pi)))
         if cycle != self._cycle:
             self._cycle, self._count = cycle, 0
-        for j, wb in zip(np.atleast_1d(nodes), np.atleast_1d(w_before)):
-            self.records.append((float(t), int(j), kind, float(wb)))
-        self._count += np.size(nodes)
+        nodes = np.array(nodes, dtype=np.int64).reshape(-1)
+        k = nodes.size
+        self._count += k
+        if k == 0:
+            return
+        wb = np.array(w_before, dtype=float).reshape(-1)
+        if wb.size != k:
+            if wb.size != 1:
+                raise ValueError(f"w_before must hold one value per node ({k}) or one value, "
+                                 f"got {wb.size}")
+            wb = np.full(k, wb[0])
+        self._t.append(float(t))
+        self._nodes.append(nodes)
+        self._kinds.append(kind)
+        self._w.append(wb)
+        self._n += k
+
+    def __len__(self):
+        return self._n
 
     @property
     def exceeded(self):
         """True once a forcing cycle holds more events than allowed."""
         return self._count > self.max_per_cycle
 
+    @property
+    def records(self):
+        """The records as a list of tuples ``(t, node, kind, w_before)``, in time order."""
+        return [(t, j, kind, wb) for t, nodes, kind, w in zip(self._t, self._nodes, self._kinds, self._w)
+                for j, wb in zip(nodes.tolist(), w.tolist())]
+
     def to_array(self):
-        """The records as a ``numpy.recarray`` with fields t, node, kind, w_before."""
-        arr = np.array(self.records, dtype=EVENT_DTYPE)
+        """The records as a ``numpy.recarray`` with fields t, node, kind, w_before (:data:`EVENT_DTYPE`)."""
+        arr = np.empty(self._n, dtype=EVENT_DTYPE)
+        if self._n:
+            sizes = [a.size for a in self._nodes]
+            arr["t"] = np.repeat(np.array(self._t, dtype=float), sizes)
+            arr["node"] = np.concatenate(self._nodes)
+            arr["kind"] = np.repeat(np.array(self._kinds, dtype=EVENT_DTYPE["kind"]), sizes)
+            arr["w_before"] = np.concatenate(self._w)
         return arr.view(np.recarray)
 
 
-def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a):
+def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a, *, absL_FF=None):
     r"""The simultaneous contact set (54) and lift-off set at an event time ``t``.
 
     A free node belongs to the contact set if it is approaching the plate
@@ -191,6 +230,24 @@ def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a):
     of ``t`` (or is at the plate to round-off).  A stuck node lifts off if its
     free acceleration :math:`a` is positive beyond round-off ``eps_a``, or is within
     ``time_tol`` of turning positive with :math:`\dot a > 0`.
+
+    Parameters
+    ----------
+    t : float
+    wF, zF : ndarray of float, shape (n_free,)
+        Velocities and heights of the free nodes ``F``.
+    F, S : ndarray of int, shape (n_free,), (n_stuck,)
+        Free and stuck node indices.
+    L_FF, L_SF : ndarray of float, shape (n_free, n_free), (n_stuck, n_free)
+        Blocks of the lattice operator.
+    Gamma, time_tol : float
+    eps_z : float or ndarray of float, shape (n_free,)
+        Height round-off.
+    eps_a : float or ndarray of float, shape (n_stuck,)
+        Acceleration round-off of the stuck nodes.
+    absL_FF : ndarray of float, shape (n_free, n_free), optional
+        ``abs(L_FF)``, if the caller holds it (it is formed here otherwise, and only when a
+        node on the plate is at rest to round-off).
 
     Returns
     -------
@@ -210,13 +267,26 @@ def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a):
     (array([0]), array([2]))
     """
     g = math.sin(t) - 1.0 / Gamma
-    accF = L_FF @ wF + g
+    abs_w = np.abs(wF)
+    eps_w = 64 * _EPS * (1.0 + abs_w.max(initial=0.0))
+    # on the plate within time_tol; approaching if w < -eps_w, or |w| <= eps_w with a < -eps_acc
+    hit = zF <= np.maximum(time_tol * np.maximum(-wF, 0.0), eps_z)
+    contact = hit & (wF < -eps_w)
+    rest = hit & (abs_w <= eps_w)
+    accF = None
+    if rest.any():
+        accF = L_FF @ wF + g
+        if absL_FF is None:
+            absL_FF = np.abs(L_FF)
+        eps_acc = 64 * _EPS * (1.0 + abs(g) + absL_FF @ abs_w)
+        contact |= rest & (accF < -eps_acc)
+    contact = F[contact]
+    if S.size == 0:
+        return contact, S[:0]
+    if accF is None:
+        accF = L_FF @ wF + g
     accS = g + L_SF @ wF
     daccS = math.cos(t) + L_SF @ accF
-    eps_w = 64 * np.finfo(float).eps * (1.0 + np.abs(wF).max(initial=0.0))
-    eps_acc = 64 * np.finfo(float).eps * (1.0 + abs(g) + np.abs(L_FF) @ np.abs(wF))
-    approaching = (wF < -eps_w) | ((wF <= eps_w) & (accF < -eps_acc))
-    contact = F[(zF <= np.maximum(time_tol * np.maximum(-wF, 0.0), eps_z)) & approaching]
     near = accS >= -np.maximum(time_tol * np.maximum(daccS, 0.0), eps_a)
     liftoff = S[(accS > eps_a) | (near & (daccS > 0.0))]
     return contact, liftoff
@@ -247,25 +317,29 @@ def apply_contacts(t, w, zeta, stuck, contact, lattice, Gamma, e, rule, stick_ve
     >>> w.tolist(), log.records[-1]
     ([-1.0, 1.0, -1.0], (0.0, 1, 'impact', -2.0))
     """
-    w_minus = w[contact].copy()
-    free = ~stuck
-    w_new = rule(w, contact, e, lattice, free)
+    w_minus = w[contact]
+    w_new = rule(w, contact, e, lattice, ~stuck)
     w_new[stuck] = 0.0
     zeta[contact] = 0.0
     slow = (np.abs(w_minus) <= stick_velocity) | (w_new[contact] <= 0.0)
-    sticks = np.empty(0, dtype=int)
-    if np.any(slow):
-        cand = contact[slow]
-        w_new[cand] = 0.0
-        acc = math.sin(t) - 1.0 / Gamma + lattice.operator[cand] @ w_new
-        sticks = cand[acc <= 0.0]
-        stuck[sticks] = True
+    if not slow.any():
+        w[:] = w_new
+        if contact.size:
+            log.add(t, contact, "impact", w_minus)
+        return np.empty(0, dtype=int)
+    cand = contact[slow]
+    w_new[cand] = 0.0
+    acc = math.sin(t) - 1.0 / Gamma + lattice.operator[cand] @ w_new
+    sticking = acc <= 0.0
+    sticks = cand[sticking]
+    stuck[sticks] = True
     w[:] = w_new
-    is_stick = np.isin(contact, sticks)
-    if np.any(~is_stick):
+    is_stick = slow.copy()
+    is_stick[slow] = sticking
+    if not is_stick.all():
         log.add(t, contact[~is_stick], "impact", w_minus[~is_stick])
-    if np.any(is_stick):
-        log.add(t, contact[is_stick], "stick", w_minus[is_stick])
+    if sticks.size:
+        log.add(t, sticks, "stick", w_minus[is_stick])
     return sticks
 
 
