@@ -17,25 +17,36 @@ integrator) and checks that the event sequences agree.
 With ``--split`` it also reports, for ``point``, how the steady time per period divides into
 :meth:`PointIntegrator.advance` and the rest of the shared driver loop (impact rule, event log;
 ``simulate`` run with a timing subclass registered in ``driver.METHODS`` for the measurement only).
+The split uses ``(time(110 periods) - time(10 periods)) / 100`` (the driver loop is a few
+10 µs per period, below the noise of a 20-period difference).
+
+With ``--baseline REV`` it also times ``point`` on the flat lattices with the event layer and
+driver loop of git revision ``REV`` (``tps_solver/fda/events.py`` and ``driver.py`` read by
+``git show``; the integrators of the working tree, their ``event_sets`` swapped for the old one
+during the old runs) against the working tree, interleaved, over 10 and 110 periods.
 
 heyoka is a benchmark-only dependency (``pip install heyoka``); it is skipped when absent.
 
 Run::
 
-    PYTHONPATH=. python benchmarks/point_benchmark.py [--repeat 3] [--kink] [--split]    (from the repository root)
+    PYTHONPATH=. python benchmarks/point_benchmark.py [--repeat 3] [--kink] [--split] [--baseline REV]
+    (from the repository root)
 """
 import argparse
+import subprocess
 import time
+import types
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 import tps_solver as tps
-from tps_solver.fda import driver, flat_state, kink_state
+from tps_solver.fda import driver, exact, flat_state, kink_state, ode, point
 from tps_solver.fda.point import PointIntegrator
 
 GAMMA, E, M = 2.5, 0.45, 2
 LENGTH = 10.0
+SPLIT_PERIODS = (10, 110)
 
 
 def run_point(lattice, w0, zeta0, t_start, t_end):
@@ -113,7 +124,7 @@ def split_table(repeat):
             w, z = flat_state(lat, fl, t0)
             best = {}
             for _ in range(repeat):
-                for periods in (10, 30):
+                for periods in SPLIT_PERIODS:
                     _TimedPoint.spent[0] = 0.0
                     tic = time.process_time()
                     tps.simulate(lat, GAMMA, E, w, z, t_start=t0, t_end=t0 + periods * fl.period + 0.5,
@@ -121,11 +132,64 @@ def split_table(repeat):
                     total = time.process_time() - tic
                     if total < best.get(periods, (np.inf,))[0]:
                         best[periods] = (total, _TimedPoint.spent[0])
-            tot = 1e3 * (best[30][0] - best[10][0]) / 20
-            adv = 1e3 * (best[30][1] - best[10][1]) / 20
+            short, long_ = SPLIT_PERIODS
+            tot = 1e3 * (best[long_][0] - best[short][0]) / (long_ - short)
+            adv = 1e3 * (best[long_][1] - best[short][1]) / (long_ - short)
             print(f"| {n} | {tot:.3f} | {adv:.3f} | {tot - adv:.3f} |")
     finally:
         del driver.METHODS["point-timed"]
+
+
+def _baseline(rev):
+    """``simulate`` and ``event_sets`` of the event layer and driver of git revision ``rev``."""
+    def source(name):
+        return subprocess.run(["git", "show", f"{rev}:tps_solver/fda/{name}.py"], capture_output=True,
+                              text=True, check=True).stdout
+
+    ev = types.ModuleType("events_" + rev)
+    ev.__package__ = "tps_solver.fda"
+    exec(compile(source("events"), f"{rev}:tps_solver/fda/events.py", "exec"), ev.__dict__)
+    lines = source("driver").splitlines(keepends=True)
+    imp = [i for i, line in enumerate(lines) if line.startswith("from .events import")]
+    assert len(imp) == 1, "the driver of this revision does not import the event layer in one line"
+    names = [x.strip() for x in lines[imp[0]].split("import", 1)[1].split(",")]
+    lines[imp[0]] = "\n"
+    drv = types.ModuleType("driver_" + rev)
+    drv.__package__ = "tps_solver.fda"
+    drv.__dict__.update({name: getattr(ev, name) for name in names})
+    exec(compile("".join(lines), f"{rev}:tps_solver/fda/driver.py", "exec"), drv.__dict__)
+    return drv.simulate, ev.event_sets
+
+
+def baseline_table(rev, repeat):
+    """Steady ms/period of ``point``: event layer and driver of ``rev`` against the working tree."""
+    old_simulate, old_event_sets = _baseline(rev)
+    users = (exact, ode, point)
+    current = [m.event_sets for m in users]
+    fl = tps.FlatLayer(GAMMA, M, E)
+    t0 = fl.t0 + 1e-6
+    short, long_ = SPLIT_PERIODS
+    print(f"\n| nodes | point, driver + events of {rev} | point, working tree | saved | ratio |")
+    print("|---|---|---|---|---|")
+    for n in (21, 101):
+        lat = tps.Lattice.planar(n_nodes=n, length=LENGTH)
+        w, z = flat_state(lat, fl, t0)
+        best = {}
+        for _ in range(repeat):
+            for which, sim, es in (("old", old_simulate, old_event_sets), ("new", tps.simulate, None)):
+                for m, cur in zip(users, current):
+                    m.event_sets = es or cur
+                try:
+                    for periods in SPLIT_PERIODS:
+                        tic = time.process_time()
+                        sim(lat, GAMMA, E, w, z, t_start=t0, t_end=t0 + periods * fl.period + 0.5, method="point")
+                        dt = time.process_time() - tic
+                        best[which, periods] = min(best.get((which, periods), np.inf), dt)
+                finally:
+                    for m, cur in zip(users, current):
+                        m.event_sets = cur
+        old, new = (1e3 * (best[k, long_] - best[k, short]) / (long_ - short) for k in ("old", "new"))
+        print(f"| {n} | {old:.3f} | {new:.3f} | {old - new:.3f} | {old / new:.2f} |")
 
 
 def contact_error(events, fl):
@@ -202,11 +266,14 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--kink", action="store_true")
     parser.add_argument("--split", action="store_true")
+    parser.add_argument("--baseline", metavar="REV", help="git revision of the old event layer and driver")
     args = parser.parse_args()
     with threadpool_limits(1):
         flat_table(args.repeat)
         if args.split:
             split_table(args.repeat)
+        if args.baseline:
+            baseline_table(args.baseline, args.repeat)
         if args.kink:
             kink_check(max(1, args.repeat // 2))
 

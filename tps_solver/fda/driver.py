@@ -190,7 +190,7 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
                     apply_contacts(t, w, zeta, stuck, contact, lattice, Gamma, e, rule, stick_velocity, log)
                     # with no stuck node (before or after the set) there is nothing to pull off and
                     # ``liftoff`` (a subset of the stuck nodes) is empty
-                    if stuck.any():
+                    if np.count_nonzero(stuck):
                         pulled = pulled_off(t, w, stuck, lattice, Gamma)
                         if pulled.size or liftoff.size > 1:
                             liftoff = np.union1d(liftoff, pulled)

@@ -41,6 +41,7 @@ __all__ = ["EVENT_DTYPE", "point_impact", "diffused_impact", "make_impact_rule",
 EVENT_DTYPE = np.dtype([("t", float), ("node", np.int64), ("kind", "U7"), ("w_before", float)])
 IMPACTS = ("point", "diffused")
 _EPS = np.finfo(float).eps
+_EPS64 = float(64 * _EPS)
 
 
 def point_impact(w_minus, contact, e, lattice, free):
@@ -242,7 +243,7 @@ def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a, *, ab
         Blocks of the lattice operator.
     Gamma, time_tol : float
     eps_z : float or ndarray of float, shape (n_free,)
-        Height round-off.
+        Height round-off, >= 0.
     eps_a : float or ndarray of float, shape (n_stuck,)
         Acceleration round-off of the stuck nodes.
     absL_FF : ndarray of float, shape (n_free, n_free), optional
@@ -268,17 +269,19 @@ def event_sets(t, wF, zF, F, S, L_FF, L_SF, Gamma, time_tol, eps_z, eps_a, *, ab
     """
     g = math.sin(t) - 1.0 / Gamma
     abs_w = np.abs(wF)
-    eps_w = 64 * _EPS * (1.0 + abs_w.max(initial=0.0))
-    # on the plate within time_tol; approaching if w < -eps_w, or |w| <= eps_w with a < -eps_acc
-    hit = zF <= np.maximum(time_tol * np.maximum(-wF, 0.0), eps_z)
+    eps_w = _EPS64 * (1.0 + float(abs_w.max(initial=0.0)))
+    # on the plate within time_tol (max(time_tol * max(-w, 0), eps_z) = max(-time_tol * w, eps_z)
+    # for eps_z >= 0); approaching if w < -eps_w, or |w| <= eps_w with a < -eps_acc
+    hit = zF <= np.maximum(wF * -time_tol, eps_z)
     contact = hit & (wF < -eps_w)
-    rest = hit & (abs_w <= eps_w)
     accF = None
-    if rest.any():
+    n_hit = np.count_nonzero(hit)
+    if n_hit and np.count_nonzero(contact) < n_hit:        # a node on the plate with |w| <= eps_w
+        rest = hit & (abs_w <= eps_w)
         accF = L_FF @ wF + g
         if absL_FF is None:
             absL_FF = np.abs(L_FF)
-        eps_acc = 64 * _EPS * (1.0 + abs(g) + absL_FF @ abs_w)
+        eps_acc = _EPS64 * (1.0 + abs(g) + absL_FF @ abs_w)
         contact |= rest & (accF < -eps_acc)
     contact = F[contact]
     if S.size == 0:
@@ -322,7 +325,7 @@ def apply_contacts(t, w, zeta, stuck, contact, lattice, Gamma, e, rule, stick_ve
     w_new[stuck] = 0.0
     zeta[contact] = 0.0
     slow = (np.abs(w_minus) <= stick_velocity) | (w_new[contact] <= 0.0)
-    if not slow.any():
+    if not np.count_nonzero(slow):
         w[:] = w_new
         if contact.size:
             log.add(t, contact, "impact", w_minus)
