@@ -388,5 +388,7 @@ def pulled_off(t, w, stuck, lattice, Gamma):
         return S
     L = lattice.operator[S]
     acc = math.sin(t) - 1.0 / Gamma + L @ w
-    eps_a = 64 * np.finfo(float).eps * (1.0 + abs(math.sin(t) - 1.0 / Gamma) + np.abs(L) @ np.abs(w))
+    if not np.count_nonzero(acc > 0.0):       # eps_a > 0: no node is pulled off
+        return S[:0]
+    eps_a = _EPS64 * (1.0 + abs(math.sin(t) - 1.0 / Gamma) + np.abs(L) @ np.abs(w))
     return S[acc > eps_a]
