@@ -9,6 +9,7 @@ from scipy.special import j0, jn_zeros
 
 import tps_solver as tps
 from tps_solver.fda import flat_state, kink_state
+from tps_solver.fda.events import EVENT_DTYPE, EventLog, apply_contacts, event_sets, point_impact
 from tps_solver.fda.exact import Modes, Segment, forced_response
 
 GAMMA, E, M = 2.5, 0.45, 2
@@ -223,7 +224,6 @@ def test_diffused_impact_with_tiny_length_is_the_point_rule():
 
 # ------------------------------------------------ event layer (tps_solver.fda.events)
 def test_event_log_blocks_expand_to_one_record_per_node():
-    from tps_solver.fda.events import EVENT_DTYPE, EventLog
     log = EventLog(0.0, max_events_per_cycle=4)
     log.add(1.0, np.array([3, 1]), "impact", np.array([-0.5, -0.25]))
     log.add(1.0, np.array([], dtype=int), "stick", np.array([]))          # an empty block logs nothing
@@ -250,7 +250,6 @@ def test_apply_contacts_mixed_set_logs_impacts_then_sticks():
     # 3 nodes, dx = 1, Neumann ends: L = [[-2, 2, 0], [1, -2, 1], [0, 2, -2]]; t = 0, g = -0.4.
     # Node 0 rebounds at w = 1; nodes 1, 2 land slower than 0.1 and are set to rest: node 1
     # feels g + w_0 = 0.6 > 0 and stays free (an impact), node 2 feels g = -0.4 and sticks.
-    from tps_solver.fda.events import EventLog, apply_contacts, point_impact
     lat = tps.Lattice.planar(n_nodes=3, length=2.0)
     w, zeta, stuck = np.array([-2.0, -0.05, -0.01]), np.zeros(3), np.zeros(3, dtype=bool)
     log = EventLog(0.0, 100)
@@ -263,7 +262,6 @@ def test_apply_contacts_mixed_set_logs_impacts_then_sticks():
 @pytest.mark.parametrize("t, on_plate", [(0.0, True), (math.pi / 2, False)])
 def test_event_sets_node_at_rest_on_the_plate(t, on_plate):
     # w = zeta = 0 everywhere: a contact iff the free acceleration g(t) = sin t - 1/Gamma < 0
-    from tps_solver.fda.events import event_sets
     L = tps.Lattice.planar(n_nodes=3, length=2.0).operator
     F, S = np.arange(3), np.arange(0)
     args = (t, np.zeros(3), np.zeros(3), F, S, L, L[:0], GAMMA, 1e-12, 1e-14, 1e-14)
