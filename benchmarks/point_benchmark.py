@@ -17,13 +17,14 @@ integrator) and checks that the event sequences agree.
 With ``--split`` it also reports, for ``point``, how the steady time per period divides into
 :meth:`PointIntegrator.advance` and the rest of the shared driver loop (impact rule, event log;
 ``simulate`` run with a timing subclass registered in ``driver.METHODS`` for the measurement only).
-The split uses ``(time(110 periods) - time(10 periods)) / 100`` (the driver loop is a few
+The split uses ``(time(310 periods) - time(10 periods)) / 300`` (the driver loop is a few
 10 µs per period, below the noise of a 20-period difference).
 
 With ``--baseline REV`` it also times ``point`` on the flat lattices with the event layer and
 driver loop of git revision ``REV`` (``tps_solver/fda/events.py`` and ``driver.py`` read by
 ``git show``; the integrators of the working tree, their ``event_sets`` swapped for the old one
-during the old runs) against the working tree, interleaved, over 10 and 110 periods.
+during the old runs) against the working tree, interleaved, over 10 and 310 periods, and checks
+that both give bitwise identical results on the 41-node kink and on an e = 0 run with sticking.
 
 heyoka is a benchmark-only dependency (``pip install heyoka``); it is skipped when absent.
 
@@ -46,7 +47,7 @@ from tps_solver.fda.point import PointIntegrator
 
 GAMMA, E, M = 2.5, 0.45, 2
 LENGTH = 10.0
-SPLIT_PERIODS = (10, 110)
+SPLIT_PERIODS = (10, 310)
 
 
 def run_point(lattice, w0, zeta0, t_start, t_end):
@@ -190,6 +191,42 @@ def baseline_table(rev, repeat):
                         m.event_sets = cur
         old, new = (1e3 * (best[k, long_] - best[k, short]) / (long_ - short) for k in ("old", "new"))
         print(f"| {n} | {old:.3f} | {new:.3f} | {old - new:.3f} | {old / new:.2f} |")
+    baseline_identity(rev, old_simulate, old_event_sets)
+
+
+def baseline_identity(rev, old_simulate, old_event_sets):
+    """Bitwise comparison of the results of ``rev`` and the working tree (kink; e = 0 with sticking)."""
+    fl = tps.FlatLayer(GAMMA, M, E)
+    kink = tps.Lattice.planar(n_nodes=41, length=20.0, boundary="pinned")
+    t0 = fl.t0 + 1.0
+    fl0 = tps.FlatLayer(Gamma=4.1, e=0.0)
+    lat5 = tps.Lattice.planar(n_nodes=5, length=4.0)
+    t1 = fl0.t0 + 0.3
+    w5, z5 = flat_state(lat5, fl0, t1)
+    cases = [("kink, 41 nodes, 2 periods", kink, GAMMA, E, *kink_state(kink, fl, t0, width=2.0), t0,
+              t0 + 2 * fl.period),
+             ("e = 0, Gamma = 4.1, 5 nodes, 3 periods", lat5, 4.1, 0.0, w5,
+              z5 * (1 + 0.05 * np.cos(np.pi * lat5.nodes / 4.0)), t1, t1 + 3 * fl0.period)]
+    users = (exact, ode, point)
+    current = [m.event_sets for m in users]
+    print(f"\nresults of {rev} and the working tree (events, final t, w, zeta, stuck, status):")
+    for label, lat, G, e, w, z, ta, tb in cases:
+        for method in ("exact", "point"):
+            out = []
+            for sim, es in ((old_simulate, old_event_sets), (tps.simulate, None)):
+                for m, cur in zip(users, current):
+                    m.event_sets = es or cur
+                try:
+                    out.append(sim(lat, G, e, w, z, t_start=ta, t_end=tb, method=method))
+                finally:
+                    for m, cur in zip(users, current):
+                        m.event_sets = cur
+            a, b = out
+            same = (a.events.dtype == b.events.dtype and a.events.tobytes() == b.events.tobytes()
+                    and all(np.asarray(getattr(a, f)).tobytes() == np.asarray(getattr(b, f)).tobytes()
+                            for f in ("t", "w", "zeta", "stuck")) and a.status == b.status)
+            kinds = ", ".join(f"{k} {int(np.sum(b.events.kind == k))}" for k in ("impact", "stick", "liftoff"))
+            print(f"  {label}, {method}: {b.n_events} events ({kinds}); bitwise identical: {same}")
 
 
 def contact_error(events, fl):
