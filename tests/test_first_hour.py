@@ -276,6 +276,27 @@ def test_small_lattices_run_on_one_blas_thread():
     assert blas_threads_now() == before                     # restored afterwards
 
 
+def test_blas_limit_scans_the_thread_pools_once(monkeypatch):
+    """threadpoolctl's scan of the loaded libraries (2-4 ms) is kept between blas_threads blocks."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    from tps_solver import budget
+
+    scans = []
+    real = threadpoolctl.ThreadpoolController
+
+    class Counting(real):
+        def __init__(self, *args, **kwargs):
+            scans.append(1)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(threadpoolctl, "ThreadpoolController", Counting)
+    monkeypatch.setattr(budget, "_CONTROLLER", [])
+    for _ in range(3):
+        with budget.blas_threads(1):
+            assert {i["num_threads"] for i in real().info() if i["user_api"] == "blas"} == {1}
+    assert len(scans) == 1
+
+
 def test_progress_display_without_tqdm(monkeypatch, caplog):
     import builtins
 

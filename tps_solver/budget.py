@@ -59,6 +59,7 @@ ValueError: n_harmonics = 1000000 is out of reach for solve_kink: estimated ...
 import contextlib
 import logging
 import os
+import sys
 
 __all__ = ["check_cost", "memory_limit", "time_limit", "set_limits", "tps_cost", "lattice_cost",
            "cycle_cost", "harmonics_cost", "blas_threads", "small_dense", "SMALL_DENSE", "Progress",
@@ -72,6 +73,7 @@ SMALL_DENSE = 1000
 
 _LIMITS = {"memory": None, "time": 3600.0}
 _ACTIVE = []             # thread limits of the enclosing blas_threads blocks
+_CONTROLLER = []         # [threadpoolctl.ThreadpoolController, len(sys.modules) when it scanned]
 
 # Optimistic rates of an idle core (measured on the project machine, then rounded up).
 _EXP_RATE = 1.0e8        # complex exponentials / transcendental evaluations per second
@@ -360,17 +362,33 @@ def blas_threads(n_threads=1, enabled=True):
     if not enabled or _ACTIVE and _ACTIVE[-1] == n_threads:
         yield                      # disabled, or already limited to n_threads by an outer block
         return
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
+    controller = _blas_controller()
+    if controller is None:
         yield
         return
-    with threadpool_limits(limits=n_threads, user_api="blas"):
+    with controller.limit(limits=n_threads, user_api="blas"):
         _ACTIVE.append(n_threads)
         try:
             yield
         finally:
             _ACTIVE.pop()
+
+
+def _blas_controller():
+    """threadpoolctl's controller of the loaded thread pools, or None without threadpoolctl.
+
+    Scanning the loaded libraries costs about 2-4 ms (``threadpool_limits`` scans on every
+    call), more than a short ``simulate`` run; the scan is kept and redone only when modules
+    were imported since (a BLAS loaded later comes with an import).
+    """
+    n_modules = len(sys.modules)
+    if not _CONTROLLER or _CONTROLLER[1] != n_modules:
+        try:
+            from threadpoolctl import ThreadpoolController
+        except ImportError:
+            return None
+        _CONTROLLER[:] = [ThreadpoolController(), len(sys.modules)]
+    return _CONTROLLER[0]
 
 
 # ------------------------------------------------------------------- progress
