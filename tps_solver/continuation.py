@@ -426,7 +426,9 @@ class _OrbitProblem:
             n = self.lattice.n_nodes
             try:
                 P = SoftMonodromy.from_run(self._run(x, p), x[:n], x[n:], self.t_s).matrix()
-            except ValueError:          # a grazing switch: the map is not differentiable there
+            except ValueError as exc:   # a grazing switch: the map is not differentiable there
+                if "grazing" not in str(exc):
+                    raise
                 P = None
         if P is None:
             h = 1e-6 * max(1.0, float(np.max(np.abs(x))))
