@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from validation.report import one_blas_thread, phase_distance
+from validation.report import markdown_table, one_blas_thread, phase_distance
 from tps_solver.fda import kink_state
 from tps_solver.localized import front_width
 from tps_solver.shooting import find_periodic_orbit
@@ -230,11 +230,8 @@ def _fmt(v):
 
 
 def table(rows, keys):
-    """Markdown table of ``rows`` (dicts) over ``keys``."""
-    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    for r in rows:
-        lines.append("| " + " | ".join(_fmt(r.get(k)) for k in keys) + " |")
-    return "\n".join(lines)
+    """Markdown table of ``rows`` (dicts) over ``keys``, cells written by :func:`_fmt`."""
+    return markdown_table(rows, [(k, lambda r, k=k: _fmt(r.get(k))) for k in keys])
 
 
 def _progress(i, r):

@@ -54,7 +54,7 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from validation.report import one_blas_thread
+from validation.report import markdown_table, one_blas_thread
 
 __all__ = ["GAMMA", "E", "M", "CUTOFF", "SPACINGS", "DEFAULT_SPACINGS", "BENCH_CASES", "table", "fate_table",
            "summary_rows", "compact_table", "kink_lattice", "kink_start", "flat_count", "period_record",
@@ -420,11 +420,8 @@ def _fmt(v):
 
 
 def table(rows, keys):
-    """Markdown table of ``rows`` (dicts) over ``keys``."""
-    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    for r in rows:
-        lines.append("| " + " | ".join(_fmt(r.get(k)) for k in keys) + " |")
-    return "\n".join(lines)
+    """Markdown table of ``rows`` (dicts) over ``keys``, cells written by :func:`_fmt`."""
+    return markdown_table(rows, [(k, lambda r, k=k: _fmt(r.get(k))) for k in keys])
 
 
 def fate_table(fr):
