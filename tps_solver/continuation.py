@@ -389,12 +389,23 @@ class _OrbitProblem:
         self.p0 = self.fixed[parameter]
         self.with_multipliers = multipliers
         self._last = None
+        self._last_run = None
 
     def _period_map(self, x, p):
         run = self._run(x, p)
         return np.concatenate([run.w, run.zeta])
 
     def _run(self, x, p):
+        """The period-map run from ``x`` at parameter ``p``; the last one is kept, since the
+        corrector asks for the residual and then the (soft: run-based) Jacobian at one point."""
+        key = (x.tobytes(), float(p))
+        if self._last_run is not None and self._last_run[0] == key:
+            return self._last_run[1]
+        run = self._new_run(x, p)
+        self._last_run = (key, run)
+        return run
+
+    def _new_run(self, x, p):
         from .fda import simulate
 
         kw = dict(self.fixed)
