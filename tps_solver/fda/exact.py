@@ -560,7 +560,7 @@ class ExactPropagator(Integrator):
         eps_z = 64 * _EPS * (1.0 + np.abs(seg.zeta0) + md.absV @ np.abs(seg.a) * max(1.0, tau_c))
         eps_a = 64 * _EPS * (1.0 + abs(g) + md.absL_SF @ np.abs(wF))
         contact, liftoff = event_sets(t_c, wF, zF, F, S, md.L_FF, md.L_SF, self.Gamma,
-                                      self.time_tol, eps_z, eps_a)
+                                      self.time_tol, eps_z, eps_a, absL_FF=md.absL_FF)
         contact = contact[self._guard[contact] <= t_c]
         w, z = self._full(F, n, wF, zF)
         return t_c, w, z, contact, liftoff, samples

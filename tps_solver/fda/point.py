@@ -778,7 +778,7 @@ class PointIntegrator(Integrator):
         else:
             eps_a = 64 * _EPS * (1.0 + abs(g))
         contact, liftoff = event_sets(t_c, wF, zF, F, S, fs.modes.L_FF, fs.modes.L_SF, self.Gamma,
-                                      self.time_tol, eps_z, eps_a)
+                                      self.time_tol, eps_z, eps_a, absL_FF=fs.modes.absL_FF)
         if self._guard_max > t_c:
             contact = contact[self._guard[contact] <= t_c]
         self._carry = (t_c, key, wF, seg.velocity_amplitudes(tau_c))
