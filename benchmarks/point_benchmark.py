@@ -42,8 +42,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import tps_solver as tps
-from tps_solver.fda import driver, exact, flat_state, kink_state, ode, point
-from tps_solver.fda.point import PointIntegrator
+from tps_solver.solvers.fda import driver, exact, flat_state, kink_state, ode, point
+from tps_solver.solvers.fda.point import PointIntegrator
 
 GAMMA, E, M = 2.5, 0.45, 2
 LENGTH = 10.0
@@ -148,7 +148,7 @@ def _baseline(rev):
                               text=True, check=True).stdout
 
     ev = types.ModuleType("events_" + rev)
-    ev.__package__ = "tps_solver.fda"
+    ev.__package__ = "tps_solver.solvers.fda"
     exec(compile(source("events"), f"{rev}:tps_solver/fda/events.py", "exec"), ev.__dict__)
     lines = source("driver").splitlines(keepends=True)
     imp = [i for i, line in enumerate(lines) if line.startswith("from .events import")]
@@ -156,7 +156,7 @@ def _baseline(rev):
     names = [x.strip() for x in lines[imp[0]].split("import", 1)[1].split(",")]
     lines[imp[0]] = "\n"
     drv = types.ModuleType("driver_" + rev)
-    drv.__package__ = "tps_solver.fda"
+    drv.__package__ = "tps_solver.solvers.fda"
     drv.__dict__.update({name: getattr(ev, name) for name in names})
     exec(compile("".join(lines), f"{rev}:tps_solver/fda/driver.py", "exec"), drv.__dict__)
     return drv.simulate, ev.event_sets

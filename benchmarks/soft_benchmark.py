@@ -1,4 +1,4 @@
-"""Benchmark of the fast soft-contact integrator (``tps_solver.fda.soft.SoftIntegrator``).
+"""Benchmark of the fast soft-contact integrator (``tps_solver.solvers.fda.soft.SoftIntegrator``).
 
 Run ``python -m benchmarks.soft_benchmark`` (add ``--full`` for the 17-node Radau comparison over two
 periods, several minutes; ``--baseline FILE`` to time another version of ``tps_solver/fda/soft.py``
@@ -23,10 +23,10 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from tps_solver.fda import kink_state
-from tps_solver import simulate
-from tps_solver.flat_soft import SoftFlatOrbit
-from tps_solver.fda.soft import SoftIntegrator
+from tps_solver.solvers.fda import kink_state
+from tps_solver.solvers.fda import simulate
+from tps_solver.model.soft_flat import SoftFlatOrbit
+from tps_solver.solvers.fda.soft import SoftIntegrator
 from validation.report import one_blas_thread
 
 
@@ -140,14 +140,14 @@ def sensitivity(n_nodes=17, length=8.0, periods=2.0, n_samples=8, eps=1e-13, **o
 
 
 def load_baseline(path):
-    """Another version of ``tps_solver/fda/soft.py`` (a file path), loaded as a module of ``tps_solver.fda``.
+    """Another version of ``tps_solver/fda/soft.py`` (a file path), loaded as a module of ``tps_solver.solvers.fda``.
 
     Returns
     -------
     type
         Its ``SoftIntegrator`` class.
     """
-    spec = importlib.util.spec_from_file_location("tps_solver.fda._soft_baseline", path)
+    spec = importlib.util.spec_from_file_location("tps_solver.solvers.fda._soft_baseline", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod.SoftIntegrator

@@ -24,7 +24,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 @pytest.fixture
 def flat_factory():
     """Return a factory building a fresh :class:`tps_solver.FlatLayer` (stable interior preset by default)."""
-    from tps_solver.flat import FlatLayer
+    from tps_solver.model.flat import FlatLayer
 
     def make(Gamma=2.5, M=2, e=0.45, t0=None, branch="stable"):
         if t0 is not None:

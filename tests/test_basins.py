@@ -1,11 +1,11 @@
-"""tps_solver.basins: the single-node integrator against simulate and FlatLayer, the classifier, the statistics."""
+"""tps_solver.analyses.basins: the single-node integrator against simulate and FlatLayer, the classifier, the statistics."""
 import math
 
 import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.basins import ball_cycle, flat_basins
+from tps_solver.analyses.basins import ball_cycle, flat_basins
 
 TWO_PI = 2.0 * math.pi
 
@@ -65,7 +65,7 @@ def test_f2_orbit_started_on_it_is_f2_with_the_floquet_multipliers():
 
 
 def test_soft_f2_multipliers_match_the_soft_flat_orbit_monodromy():
-    from tps_solver.flat_soft import SoftFlatOrbit     # independent reference (per-mode monodromy)
+    from tps_solver.model.soft_flat import SoftFlatOrbit  # independent reference (per-mode monodromy)
     orb = SoftFlatOrbit(2.5, 2, 0.45, 0.3)
     ts = orb.t_exit + 1.0
     w, z = orb.state(ts)

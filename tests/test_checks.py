@@ -1,13 +1,10 @@
-"""The shared argument checks of ``tps_solver._checks``."""
+"""The shared argument checks of ``tps_solver.core.checks``."""
 import math
 
 import numpy as np
 import pytest
 
-from tps_solver._checks import (
-    check_array, check_choice, check_in_range, check_int, check_nonnegative, check_positive,
-    check_real, check_restitution,
-)
+from tps_solver.core.checks import (check_array, check_choice, check_in_range, check_int, check_nonnegative, check_positive, check_real, check_restitution)
 
 GOOD = [
     (check_real, (-3,), -3.0),

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from tps_solver import load
+from tps_solver.solvers.tps import load
 from tps_solver.cli import build_parser, main
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -34,7 +34,7 @@ def test_simulate_soft_contact_with_cutoff_runs(capsys):
 
 
 def test_simulate_methods_are_the_registry():
-    from tps_solver import METHODS
+    from tps_solver.solvers.fda import METHODS
 
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     method = next(a for a in sub.choices["simulate"]._actions if a.dest == "method")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tps_solver.cli import main
-from tps_solver.flat import FlatLayer
+from tps_solver.model.flat import FlatLayer
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NUMBER = r"[-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?"

@@ -1,4 +1,4 @@
-"""Tests of tps_solver.contact: the contact condition (46) and its root selection.
+"""Tests of tps_solver.operators.contact: the contact condition (46) and its root selection.
 
 Manufactured data: a series "analytic part + kink + J * sawtooth jump at tc"
 whose exact sum is known in closed form, so both the root of the truncated
@@ -14,9 +14,8 @@ import mpmath
 import numpy as np
 import pytest
 
-from tps_solver.contact import (contact_polynomial, contact_sensitivity, contact_times,
-                                jump_asymptotics, kink_tail, trig_sum)
-from tps_solver.harmonics import evaluate, flat_w_hat
+from tps_solver.operators.contact import (contact_polynomial, contact_sensitivity, contact_times, jump_asymptotics, kink_tail, trig_sum)
+from tps_solver.model.harmonics import evaluate, flat_w_hat
 
 EPS = np.finfo(float).eps
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.continuation import continue_branch, load_branch
+from tps_solver.analyses.continuation import continue_branch, load_branch
 
 
 @pytest.fixture(scope="module")
@@ -178,7 +178,7 @@ def test_shooting_orbit_cutoff_needs_a_soft_orbit(cycle):
 
 def test_soft_orbit_branch_multipliers_match_the_closed_form_flat_monodromy():
     """Soft flat orbit on 3 nodes continued in the cut-off: the branch's multipliers (exact soft
-    monodromy, tps_solver.soft_monodromy) against SoftFlatOrbit's closed-form per-mode map at
+    monodromy, tps_solver.solvers.shooting.soft_monodromy) against SoftFlatOrbit's closed-form per-mode map at
     every point.  (The central-difference Jacobian it replaced was off by 3e-10 to 3e-9 here.)"""
     from validation.continuation import soft_branch
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.fda import flat_state, simulate
-from tps_solver.flat_soft import SoftFlatOrbit, soft_contact_parameters
-from tps_solver.lattice import lattice_eigenvalues
+from tps_solver.solvers.fda import flat_state, simulate
+from tps_solver.model.soft_flat import SoftFlatOrbit, soft_contact_parameters
+from tps_solver.operators.lattice import lattice_eigenvalues
 from validation.impact_rules import kernel_matrix, regularised_impact
 from validation.cutoff import fast_plain, fast_soft, perturbation_growth, soft_simulation_check
 
@@ -111,7 +111,7 @@ def test_soft_uniform_mode_tends_to_flat_layer_multipliers():
 
 @pytest.mark.parametrize("c", (-2500.0, -7.0, 0.0, 3.0))
 def test_companion_exponential_against_mpmath(c):
-    from tps_solver.flight import expm_companion as _expm_companion
+    from tps_solver.model.flight import expm_companion as _expm_companion
     a = np.array([-1e8, -1e3, -50.0, -2 * math.sqrt(7.0), -3.0, 0.5, 100.0])
     got = _expm_companion(a, c, 0.09)
     with mpmath.workdps(40):

@@ -1,4 +1,4 @@
-"""Tests of the event-driven FDA (tps_solver.fda): lattices, both integrators, events."""
+"""Tests of the event-driven FDA (tps_solver.solvers.fda): lattices, both integrators, events."""
 import math
 
 import numpy as np
@@ -8,9 +8,9 @@ from scipy.optimize import brentq
 from scipy.special import j0, jn_zeros
 
 import tps_solver as tps
-from tps_solver.fda import flat_state, kink_state
-from tps_solver.fda.events import EVENT_DTYPE, EventLog, apply_contacts, event_sets, point_impact
-from tps_solver.fda.exact import Modes, Segment, forced_response
+from tps_solver.solvers.fda import flat_state, kink_state
+from tps_solver.solvers.fda.events import EVENT_DTYPE, EventLog, apply_contacts, event_sets, point_impact
+from tps_solver.solvers.fda.exact import Modes, Segment, forced_response
 
 GAMMA, E, M = 2.5, 0.45, 2
 EPS = np.finfo(float).eps
@@ -222,7 +222,7 @@ def test_diffused_impact_with_tiny_length_is_the_point_rule():
     np.testing.assert_allclose(a.zeta, b.zeta, rtol=0, atol=1e-12)
 
 
-# ------------------------------------------------ event layer (tps_solver.fda.events)
+# ------------------------------------------------ event layer (tps_solver.solvers.fda.events)
 def test_event_log_blocks_expand_to_one_record_per_node():
     log = EventLog(0.0, max_events_per_cycle=4)
     log.add(1.0, np.array([3, 1]), "impact", np.array([-0.5, -0.25]))

@@ -1,4 +1,4 @@
-"""Result files (:mod:`tps_solver.io`): every result type round-trips; damaged, foreign, newer or
+"""Result files (:mod:`tps_solver.core.archive`): every result type round-trips; damaged, foreign, newer or
 inconsistent files raise ValueError saying what is wrong; one rule for the ``.npz`` ending."""
 import math
 import os
@@ -7,9 +7,13 @@ import pathlib
 import numpy as np
 import pytest
 
-from tps_solver import (FlatLayer, Lattice, check_stability, load, secular_roots, simulate, solve_kink,
-                        solve_lattice_cycle)
-from tps_solver import io
+from tps_solver.model.flat import FlatLayer
+from tps_solver.operators.lattice import Lattice
+from tps_solver.analyses.stability import check_stability
+from tps_solver.solvers.tps import load, solve_kink, solve_lattice_cycle
+from tps_solver.model.linear_stability import secular_roots
+from tps_solver.solvers.fda import simulate
+from tps_solver.core import archive as io
 
 
 @pytest.fixture(scope="module")

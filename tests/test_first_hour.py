@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver import budget, defaults
-from tps_solver.tps.engine import newton
+from tps_solver.core import budget, defaults
+from tps_solver.solvers.tps.engine import newton
 
 COARSE = dict(n_nodes=8, length=140.0)          # the README's coarse lattice (spacing 20)
 
@@ -181,7 +181,7 @@ def test_limits_can_be_changed():
 
 def test_checks_memory_is_bounded_in_blocks():
     """The checks evaluate the series in blocks: the same numbers as one evaluation."""
-    from tps_solver.tps import checks
+    from tps_solver.solvers.tps import checks
 
     sol = tps.solve_oscillon(n_harmonics=8)
     whole = checks.physical_checks(sol)
@@ -226,7 +226,7 @@ def test_interrupted_tps_keeps_last_iterate(continuation):
 
 def test_interrupted_newton_returns_consistent_iterate():
     """The returned w belongs to the returned tc (the residual recomputed from tc matches)."""
-    from tps_solver.tps.problems import ContinuumProblem
+    from tps_solver.solvers.tps.problems import ContinuumProblem
 
     fl = tps.FlatLayer(2.5, e=0.45)
     problem = ContinuumProblem("axisymmetric", 20.0, 6, fl, 6)
@@ -279,7 +279,7 @@ def test_small_lattices_run_on_one_blas_thread():
 def test_blas_limit_scans_the_thread_pools_once(monkeypatch):
     """threadpoolctl's scan of the loaded libraries (2-4 ms) is kept between blas_threads blocks."""
     threadpoolctl = pytest.importorskip("threadpoolctl")
-    from tps_solver import budget
+    from tps_solver.core import budget
 
     scans = []
     real = threadpoolctl.ThreadpoolController
@@ -341,7 +341,7 @@ def test_demo_defaults_are_converged_and_checked():
 
 def test_lattice_cycle_in_blocks_matches_one_block():
     """The O(n^3) residual evaluated in row blocks (bounded memory) gives the same cycle."""
-    from tps_solver.tps import cycle
+    from tps_solver.solvers.tps import cycle
 
     lat = tps.Lattice.axisymmetric(8, 140.0, grid="uniform")
     whole = tps.solve_lattice_cycle(lat, r_core=30.0)

@@ -1,6 +1,6 @@
 """Acceptance tests of FlatLayer, eqs. (17)-(19).
 
-References are independent of ``tps_solver.flat``'s code paths (see
+References are independent of ``tps_solver.model.flat``'s code paths (see
 ``validation/flat_layer_analytics.py``): the paper's first form of (18), an ODE
 integration of the flight, QUADPACK, dense sampling + a local minimiser, central
 differences and a bisection on the multiplier modulus.
@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 from scipy import integrate
 
-from tps_solver.flat import FlatLayer
+from tps_solver.model.flat import FlatLayer
 from validation.flat_layer_analytics import (
     JACOBIAN_CASES, fd_jacobian, interior_min_height, ode_impact_map, paper_flight,
     upper_end_by_bisection,

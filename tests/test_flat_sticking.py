@@ -1,7 +1,7 @@
 """FlatLayer orbits with sticking, touch-and-go and chatter contacts.
 
 References (``validation/flat_sticking.py``) share no code with
-``tps_solver.sticking``: an mpmath ball (30 digits for e = 0, 50 with chatter)
+``tps_solver.model.sticking``: an mpmath ball (30 digits for e = 0, 50 with chatter)
 on the paper's first form of (18), landings by dense sampling + a bracketing
 solver, chatter followed bounce by bounce down to 1e-18, and QUADPACK for the
 Fourier coefficients.
@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 import tps_solver as tps
-from tps_solver import sticking
+from tps_solver.model import sticking
 from validation.flat_sticking import (measure, quad_harmonics, reference_height, reference_orbit,
                                       reference_touch_landings, reference_velocity)
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from tps_solver.flat import FlatLayer
-from tps_solver.harmonics import evaluate, flat_w_hat, g_hat, mode_numbers
+from tps_solver.model.flat import FlatLayer
+from tps_solver.model.harmonics import evaluate, flat_w_hat, g_hat, mode_numbers
 from validation.flat_layer_analytics import mpmath_coefficient, paper_flight, quad_coefficients
 
 EPS = np.finfo(float).eps

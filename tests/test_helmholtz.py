@@ -6,7 +6,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from tps_solver.helmholtz import HelmholtzSolver
+from tps_solver.operators.helmholtz import HelmholtzSolver
 from validation import helmholtz as helmholtz_validation
 
 EPS = np.finfo(float).eps

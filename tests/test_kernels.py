@@ -3,8 +3,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from tps_solver.kernels import (exp_moments, helmholtz_beta, radial_half_cell_moments,
-                                radial_moment_i, radial_moment_k)
+from tps_solver.operators.kernels import (exp_moments, helmholtz_beta, radial_half_cell_moments, radial_moment_i, radial_moment_k)
 
 DPS = 40
 RTOL = 1e-12

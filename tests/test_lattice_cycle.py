@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.fda import simulate
-from tps_solver.tps.cycle import _H, _H_int
+from tps_solver.solvers.fda import simulate
+from tps_solver.solvers.tps.cycle import _H, _H_int
 
 EPS = np.finfo(float).eps
 

@@ -14,11 +14,9 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from tps_solver import growth_rates, secular_roots
+from tps_solver.model.linear_stability import growth_rates, secular_roots
 from tps_solver.cli import main as cli_main
-from tps_solver.linear_stability import (
-    KAPPA_C, MODES, POLISH_REL, _phi_complex, _winding_number, chebyshev_eigenvalues, reduced_secular_function,
-)
+from tps_solver.model.linear_stability import (KAPPA_C, MODES, POLISH_REL, _phi_complex, _winding_number, chebyshev_eigenvalues, reduced_secular_function)
 from validation.linear_stability import (
     agreement_table, convergence_study, free_surface_limit, shooting_determinant, shooting_root,
 )

@@ -1,9 +1,9 @@
-"""Kinks and oscillons on lattices by settling and shooting (tps_solver.localized)."""
+"""Kinks and oscillons on lattices by settling and shooting (tps_solver.analyses.localized)."""
 import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.localized import front_width, interface_position, lattice_kink, lattice_oscillon
+from tps_solver.analyses.localized import front_width, interface_position, lattice_kink, lattice_oscillon
 
 
 @pytest.fixture(scope="module")

@@ -1,7 +1,7 @@
-"""Tests of the point-impact integrator with carried modal amplitudes (tps_solver.fda.point).
+"""Tests of the point-impact integrator with carried modal amplitudes (tps_solver.solvers.fda.point).
 
 Until the driver's method registry constructs :class:`PointIntegrator`, the runs use
-``_run`` below: a copy of the loop body of ``tps_solver.fda.driver.simulate`` (advance,
+``_run`` below: a copy of the loop body of ``tps_solver.solvers.fda.driver.simulate`` (advance,
 then the shared event layer: contacts, pull-off, lift-off).
 """
 import math
@@ -12,9 +12,9 @@ import pytest
 from scipy.optimize import brentq
 
 import tps_solver as tps
-from tps_solver.fda import flat_state, kink_state
-from tps_solver.fda.events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
-from tps_solver.fda.point import PointIntegrator
+from tps_solver.solvers.fda import flat_state, kink_state
+from tps_solver.solvers.fda.events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
+from tps_solver.solvers.fda.point import PointIntegrator
 
 GAMMA, E, M = 2.5, 0.45, 2
 
@@ -237,7 +237,7 @@ def test_search_bound_raises():
 
 
 def test_phi2_against_mpmath():
-    from tps_solver.flight import phi2_expm1 as _phi2
+    from tps_solver.model.flight import phi2_expm1 as _phi2
 
     z = np.concatenate((-np.logspace(-20, 1.5, 200), [0.0], np.logspace(-12, -1.01, 30),
                         -np.linspace(0.09, 0.11, 21)))
@@ -250,8 +250,8 @@ def test_phi2_against_mpmath():
 @pytest.mark.parametrize("stuck_nodes", [[], [3, 4, 9]])
 def test_closed_form_flight_matches_exact_segment(stuck_nodes):
     # the rewritten forced response against method="exact"'s Segment (forced_response)
-    from tps_solver.fda.exact import Segment
-    from tps_solver.fda.point import _FreeSet, _Segment
+    from tps_solver.solvers.fda.exact import Segment
+    from tps_solver.solvers.fda.point import _FreeSet, _Segment
 
     lat = tps.Lattice.planar(n_nodes=13, length=6.0, boundary="pinned")
     free = np.ones(13, dtype=bool)
@@ -274,7 +274,7 @@ def test_closed_form_flight_matches_exact_segment(stuck_nodes):
 @pytest.mark.parametrize("stuck_nodes", [[], [3, 4, 9]])
 def test_derivative_bounds_hold_for_all_later_times(stuck_nodes):
     # the certificate of the search: D_1 >= |w'|, D_2 >= |w''| from tau_1 on (zero modes: G, 1)
-    from tps_solver.fda.point import _FreeSet, _Segment
+    from tps_solver.solvers.fda.point import _FreeSet, _Segment
 
     lat = tps.Lattice.planar(n_nodes=13, length=6.0, boundary="neumann")
     free = np.ones(13, dtype=bool)

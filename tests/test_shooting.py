@@ -1,4 +1,4 @@
-"""Periodic orbits by shooting (tps_solver.shooting.find_periodic_orbit).
+"""Periodic orbits by shooting (tps_solver.solvers.shooting.periodic.find_periodic_orbit).
 
 References: the exact single-contact lattice cycle (solve_lattice_cycle, closed form), the
 closed-form e = 0 flat orbit (lift-off at sin t = 1/Gamma, touch-and-go, stick), check_stability's
@@ -12,7 +12,7 @@ import pytest
 from scipy.optimize import brentq
 
 import tps_solver as tps
-from tps_solver.shooting import ShootingOrbit, find_periodic_orbit
+from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_orbit
 
 G, E, M = 2.5, 0.45, 2
 
@@ -291,8 +291,8 @@ def test_ode_method_finds_the_same_cycle(coarse, coarse_orbit):
 
 @pytest.mark.slow
 def test_soft_flat_orbit_and_multipliers_match_per_mode_monodromy():
-    from tps_solver.flat_soft import SoftFlatOrbit
-    from tps_solver.lattice import lattice_eigenvalues
+    from tps_solver.model.soft_flat import SoftFlatOrbit
+    from tps_solver.operators.lattice import lattice_eigenvalues
 
     ell = 0.3
     lat = tps.Lattice.planar(n_nodes=3, length=1.0)

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.fda import kink_state
-from tps_solver import simulate
-from tps_solver.flat_soft import SoftFlatOrbit, soft_contact_parameters
-from tps_solver.fda.soft import SoftIntegrator, radau_iia
+from tps_solver.solvers.fda import kink_state
+from tps_solver.solvers.fda import simulate
+from tps_solver.model.soft_flat import SoftFlatOrbit, soft_contact_parameters
+from tps_solver.solvers.fda.soft import SoftIntegrator, radau_iia
 
 
 def simulate_soft(lattice, Gamma, e, w0, zeta0, t_start, t_end, **kw):

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.flat_soft import SoftFlatOrbit
+from tps_solver.model.soft_flat import SoftFlatOrbit
 from validation.impact_rules import regularised_impact
 
 

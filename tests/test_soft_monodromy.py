@@ -1,4 +1,4 @@
-"""Exact soft-contact monodromy (tps_solver.soft_monodromy) against independent references.
+"""Exact soft-contact monodromy (tps_solver.solvers.shooting.soft_monodromy) against independent references.
 
 * the closed-form per-mode soft flat monodromy (SoftFlatOrbit.monodromy, built from
   expm_companion/flight_map, not from scipy's expm) times the lattice modes;
@@ -13,9 +13,9 @@ import pytest
 import scipy.linalg
 
 import tps_solver as tps
-from tps_solver.flat_soft import SoftFlatOrbit
-from tps_solver.lattice import lattice_eigenvalues
-from tps_solver.soft_monodromy import SoftMonodromy, soft_monodromy
+from tps_solver.model.soft_flat import SoftFlatOrbit
+from tps_solver.operators.lattice import lattice_eigenvalues
+from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy, soft_monodromy
 
 G, M, E, ELL = 2.5, 2, 0.45, 0.3
 

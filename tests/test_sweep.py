@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tps_solver.parallel import SweepInterrupted, load_store, param_key, param_range, sweep
+from tps_solver.analyses.sweep import SweepInterrupted, load_store, param_key, param_range, sweep
 
 
 # ---------------------------------------------------------------- tasks (module level: picklable)

@@ -1,12 +1,12 @@
-"""Tests of the spectral time-periodic solver (tps_solver.tps)."""
+"""Tests of the spectral time-periodic solver (tps_solver.solvers.tps)."""
 import math
 
 import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.tps.engine import newton
-from tps_solver.tps.problems import ContinuumProblem
+from tps_solver.solvers.tps.engine import newton
+from tps_solver.solvers.tps.problems import ContinuumProblem
 
 EPS = np.finfo(float).eps
 
@@ -198,7 +198,7 @@ def test_bad_oscillon_domain(kwargs, match):
 def test_oscillon_solution_regular_at_origin():
     """For a smooth radial right-hand side the solution has zero slope at r = 0: the one-sided
     slope (u(r1) - u(0))/r1 vanishes like O(h) (a leaked K0 term would give a log singularity)."""
-    from tps_solver.helmholtz import HelmholtzSolver
+    from tps_solver.operators.helmholtz import HelmholtzSolver
 
     N, M = 6, 2
     slopes = []
@@ -217,7 +217,7 @@ def test_oscillon_solution_regular_at_origin():
 def test_planar_dual_cells_exact_for_a_step(parity):
     """interpolation='cells' is exact when q is constant on the dual cells: a step at a cell edge
     (midpoint between nodes) against the analytic solution of u'' - beta^2 u = q, q = 1 on [0, a)."""
-    from tps_solver.helmholtz import HelmholtzSolver
+    from tps_solver.operators.helmholtz import HelmholtzSolver
 
     M, N, a = 2, 6, 3.05
     x = np.arange(0.0, 20.0 + 1e-9, 0.1)
@@ -237,7 +237,7 @@ def test_planar_dual_cells_exact_for_a_step(parity):
 
 
 def test_interpolation_choice_is_validated():
-    from tps_solver.helmholtz import HelmholtzSolver
+    from tps_solver.operators.helmholtz import HelmholtzSolver
 
     with pytest.raises(ValueError, match="interpolation"):
         HelmholtzSolver(np.linspace(0, 1, 5), "axisymmetric", 2, 3, interpolation="linear")

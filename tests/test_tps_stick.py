@@ -1,4 +1,4 @@
-"""Tests of the impact-and-stick TPS (tps_solver.tps_stick)."""
+"""Tests of the impact-and-stick TPS (tps_solver.solvers.tps.stick)."""
 import math
 
 import numpy as np
@@ -6,8 +6,8 @@ import pytest
 from numpy.polynomial.legendre import leggauss
 
 import tps_solver as tps
-from tps_solver import tps_stick as ts
-from tps_solver.helmholtz import LatticeHelmholtz
+from tps_solver.solvers.tps import stick as ts
+from tps_solver.operators.helmholtz import LatticeHelmholtz
 
 GAMMAS = (3.9, 4.1, 4.4)
 

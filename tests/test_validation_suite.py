@@ -76,7 +76,7 @@ def test_flat_tps_reproduces_flat_layer(flat_result):
 
 def test_flat_fda_reproduces_flat_layer(flat_result):
     if not flat_result["fda"]:
-        pytest.skip("tps_solver.fda does not exist yet")
+        pytest.skip("tps_solver.solvers.fda does not exist yet")
     fda = [r for r in flat_result["rows"] if r["solver"].startswith("FDA")]
     assert {r["solver"] for r in fda} == {"FDA exact", "FDA ode"}
     for r in fda:
@@ -162,7 +162,8 @@ def test_figures_listed_or_made(tmp_path):
 
 
 def test_oscillon_state_joins_the_two_phases():
-    from tps_solver import FlatLayer, Lattice
+    from tps_solver.model.flat import FlatLayer
+    from tps_solver.operators.lattice import Lattice
 
     fl = FlatLayer(2.5, 2, e=0.45)
     lat = Lattice.axisymmetric(n_nodes=30, r_max=6.0, grid="uniform")

@@ -23,7 +23,7 @@ import pkgutil
 import re
 import sys
 
-from . import __version__, _commands
+from tps_solver import __version__, _commands
 
 __all__ = ["main", "build_parser", "flag_error"]
 

@@ -5,7 +5,7 @@ r"""Figures (matplotlib is imported only when a function is called; the backend 
   profiles of the kink;
 * :func:`growth_rates_figure` / :func:`plot_growth_rates` -- the damping rates of (35);
 * :func:`orbit_period_figure` / :func:`plot_orbit_period` -- height and velocity of a lattice
-  periodic orbit (e.g. a :class:`~tps_solver.shooting.ShootingOrbit`) over one period;
+  periodic orbit (e.g. a :class:`~tps_solver.solvers.shooting.periodic.ShootingOrbit`) over one period;
 * :func:`contact_pattern_figure` / :func:`plot_contact_pattern` -- its contact pattern
   (node position vs time: flying, touch-and-go instants, stuck intervals).
 
@@ -53,7 +53,7 @@ def _header(sol, kind, stretched):
 
 
 def solution_figures(sol, n_times=160):
-    """Build the standard figures of a :class:`~tps_solver.tps.PeriodicSolution`.
+    """Build the standard figures of a :class:`~tps_solver.solvers.tps.PeriodicSolution`.
 
     Parameters
     ----------
@@ -145,7 +145,7 @@ def solution_figures(sol, n_times=160):
 
 
 def plot_solution(sol, directory, n_times=160, prefix=None):
-    """Write the standard figures of a :class:`~tps_solver.tps.PeriodicSolution` (see :func:`solution_figures`).
+    """Write the standard figures of a :class:`~tps_solver.solvers.tps.PeriodicSolution` (see :func:`solution_figures`).
 
     Parameters
     ----------
@@ -232,7 +232,7 @@ def growth_rates_figure(kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_points=12
     """
     plt = _pyplot()
 
-    from .linear_stability import MODES, growth_rates
+    from tps_solver.model.linear_stability import MODES, growth_rates
 
     kh = np.geomspace(kh_min, kh_max, n_points)
     fig, ax = plt.subplots(figsize=(7, 5), layout="constrained")

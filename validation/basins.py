@@ -30,7 +30,7 @@ import numpy as np
 
 import tps_solver as tps
 from validation.report import one_blas_thread
-from tps_solver.basins import ball_cycle, flat_basins
+from tps_solver.analyses.basins import ball_cycle, flat_basins
 
 #: (Gamma, e) of the study, M = 2.
 CASES = ((2.5, 0.45), (4.1, 0.0), (4.1, 0.1), (4.4, 0.1))

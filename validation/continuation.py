@@ -93,7 +93,7 @@ def soft_branch(parameter="cutoff", bounds=(0.25, 0.35), max_points=3, step=0.00
         branch's multipliers and the closed-form ones, both ways), ``n_multipliers``; the first
         row also carries ``seconds`` (the whole continuation) and ``points``.
     """
-    from tps_solver.lattice import lattice_eigenvalues
+    from tps_solver.operators.lattice import lattice_eigenvalues
 
     ref = tps.SoftFlatOrbit(Gamma, M, e, cutoff)
     lat = tps.Lattice.planar(n_nodes=3, length=1.0)
@@ -154,7 +154,7 @@ def main():
         "",
         "**Soft-contact orbit by shooting** (cut-off 0.3, 3-node planar Neumann lattice of length 1, the flat "
         "orbit): continued in the cut-off and in Gamma; at every branch point the Floquet multipliers from the "
-        "exact soft monodromy (`tps_solver.soft_monodromy`) against the closed-form per-mode map "
+        "exact soft monodromy (`tps_solver.solvers.shooting.soft_monodromy`) against the closed-form per-mode map "
         "`SoftFlatOrbit.monodromy`:",
         "",
         markdown_table(soft, [("parameter", "parameter"), ("value", lambda r: f"{r['value']:.6g}"),

@@ -19,7 +19,7 @@ What is measured
   :mod:`validation.impact_rules` (normalised kernel, coherent patches) and
   the paper's unnormalised (67), at a fixed cut-off, under refinement.
 * :func:`soft_study` -- the soft-contact model: per-mode monodromy
-  (:class:`~tps_solver.flat_soft.SoftFlatOrbit`) on the lattice's
+  (:class:`~tps_solver.model.soft_flat.SoftFlatOrbit`) on the lattice's
   eigenvalues under refinement at fixed cut-off (observed order), the continuum
   growth curve rho(k) for several cut-offs, and a direct-simulation cross-check
   (:func:`soft_simulation_check`).
@@ -37,10 +37,10 @@ import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-from tps_solver import FlatLayer
-from tps_solver.fda import Lattice, flat_state, simulate
-from tps_solver.flat_soft import SoftFlatOrbit
-from tps_solver.lattice import lattice_eigenvalues
+from tps_solver.model.flat import FlatLayer
+from tps_solver.solvers.fda import Lattice, flat_state, simulate
+from tps_solver.model.soft_flat import SoftFlatOrbit
+from tps_solver.operators.lattice import lattice_eigenvalues
 from validation.impact_rules import regularised_impact
 
 FIG_DIR = os.path.join(_ROOT, "validation", "figures")
@@ -104,7 +104,7 @@ def perturbation_growth(lattice, Gamma, e, M, *, propagate=None, w0=None, zeta0=
     Gamma, e, M : float, float, int
     propagate : callable, optional
         ``propagate(w, zeta, t_start, t_end) -> SimulationResult``; default
-        :func:`~tps_solver.fda.simulate` on ``lattice`` with ``**simulate_kw``.
+        :func:`~tps_solver.solvers.fda.simulate` on ``lattice`` with ``**simulate_kw``.
     w0, zeta0 : ndarray of float, shape (n_nodes,), optional
         Reference state at ``t_section``; default the hard flat layer at mid-flight.
     t_section : float, optional

@@ -13,7 +13,7 @@ What is measured
   the strobe points at t = 0 and t = T/2 of the most frequent f/2 attractor of
   :func:`tps_solver.flat_basins`, whatever its contact pattern), joined
   linearly over ``width`` (the construction of
-  :func:`tps_solver.fda.kink_state`).  After every period T:
+  :func:`tps_solver.solvers.fda.kink_state`).  After every period T:
 
   - the *periodicity defect* ``max(|w(t+T) - w(t)|, |zeta(t+T) - zeta(t)|)``
     over the nodes;

@@ -20,7 +20,7 @@ import numpy as np
 
 
 import tps_solver as tps
-from tps_solver.fda import flat_state, kink_state
+from tps_solver.solvers.fda import flat_state, kink_state
 
 GAMMA, E, M = 2.5, 0.45, 2
 FIGDIR = os.path.join(os.path.dirname(__file__), "figures")

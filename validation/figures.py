@@ -25,7 +25,7 @@ import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-from tps_solver import FlatLayer
+from tps_solver.model.flat import FlatLayer
 from validation.report import FIGURES_DIR, merged_config, optional_import, publish
 
 #: Fast configuration (tests) and full configuration (``main``).
@@ -47,7 +47,7 @@ def oscillon_state(lattice, flat, t, r_core=1.0, width=0.5):
     """Decoupled oscillon state at time ``t``: phase ``t + T/2`` inside ``r_core``, ``t`` outside.
 
     The two flat states are joined linearly over ``|r - r_core| < width/2``
-    (the radial analogue of :func:`tps_solver.fda.kink_state`).
+    (the radial analogue of :func:`tps_solver.solvers.fda.kink_state`).
 
     Returns
     -------
@@ -63,7 +63,7 @@ def oscillon_state(lattice, flat, t, r_core=1.0, width=0.5):
 
 def _fda_run(lattice, fl, w, z, ts, periods, shown, samples):
     """Run ``periods`` periods; sample the last ``shown`` of them (``samples`` per period)."""
-    from tps_solver import simulate
+    from tps_solver.solvers.fda import simulate
 
     T = fl.period
     t_end = ts + periods * T
@@ -99,8 +99,10 @@ def fig2_fda_kink(fl, cfg, directory):
     zeta(x, t), w(x, t) over one period and the contact pattern, and is made only if Newton
     converged (otherwise the entry says why).
     """
-    from tps_solver import Lattice, find_periodic_orbit, simulate
-    from tps_solver.fda import kink_state
+    from tps_solver.operators.lattice import Lattice
+    from tps_solver.solvers.shooting.periodic import find_periodic_orbit
+    from tps_solver.solvers.fda import simulate
+    from tps_solver.solvers.fda import kink_state
     from tps_solver.plotting import plot_contact_pattern, plot_orbit_period
 
     lat = Lattice.planar(n_nodes=cfg["kink_nodes"], length=cfg["kink_length"], boundary="pinned")
@@ -136,7 +138,7 @@ def _fmt(value):
 
 def figs345_tps_oscillon(fl, cfg, directory):
     """Figs. 3-5 from a TPS oscillon, if it converged; else the reason."""
-    from tps_solver import solve_oscillon
+    from tps_solver.solvers.tps import solve_oscillon
     from tps_solver.plotting import plot_solution
 
     sol = solve_oscillon(Gamma=fl.Gamma, M=fl.M, t0=fl.t0, n_harmonics=cfg["tps_N"], n_nodes=cfg["tps_nodes"],
@@ -176,7 +178,7 @@ def _polar_snapshots(plt, r, times, rel, title, path):
 
 def figs78_fda_oscillon(fl, cfg, directory):
     """Fig. 7 (cycles of zeta - Z) and Fig. 8 (polar snapshots) of an FDA oscillon."""
-    from tps_solver import Lattice
+    from tps_solver.operators.lattice import Lattice
 
     plt = _pyplot()
     lat = Lattice.axisymmetric(n_nodes=cfg["osc_nodes"], r_max=cfg["osc_r_max"], grid="quasilog")
@@ -237,19 +239,19 @@ def make_figures(config=None, directory=FIGURES_DIR, **overrides):
     cfg = merged_config(FAST, config, overrides)
     os.makedirs(directory, exist_ok=True)
     fl = FlatLayer(cfg["Gamma"], cfg["M"], e=cfg["e"])
-    fda = optional_import("tps_solver.fda") is not None
+    fda = optional_import("tps_solver.solvers.fda") is not None
     entries = []
     if fda:
         entries.append(fig2_fda_kink(fl, cfg, directory))
     else:
         entries.append(dict(figure="Fig. 2", what="kink elevation from the FDA", made=False, paths=[], solver="",
-                            reason="the FDA (tps_solver.fda) does not exist yet"))
+                            reason="the FDA (tps_solver.solvers.fda) does not exist yet"))
     entries += figs345_tps_oscillon(fl, cfg, directory)
     if fda:
         entries += figs78_fda_oscillon(fl, cfg, directory)
     else:
         entries += [dict(figure=f, what=w, made=False, paths=[], solver="",
-                         reason="the FDA (tps_solver.fda) does not exist yet")
+                         reason="the FDA (tps_solver.solvers.fda) does not exist yet")
                     for f, w in (("Fig. 7", "cycles of zeta - Z from the FDA"),
                                  ("Fig. 8", "polar snapshots of the FDA oscillon"))]
     for e in entries:

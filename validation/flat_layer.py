@@ -31,7 +31,7 @@ import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-from tps_solver import FlatLayer
+from tps_solver.model.flat import FlatLayer
 from validation.report import markdown_table, merged_config, optional_import, publish
 
 #: Fast configuration (tests, demo) and full configuration (``main``).
@@ -141,7 +141,7 @@ def tps_rows(fl, n_harmonics=16, n_nodes=24, size=8.0, stability=None, stability
         (check_stability of the TPS solution, if requested), ``checks``,
         ``time`` and the case parameters.
     """
-    from tps_solver import solve_kink, solve_oscillon
+    from tps_solver.solvers.tps import solve_kink, solve_oscillon
 
     N, T = n_harmonics, fl.period
     w_ref, z_ref = fl.harmonics(N), fl.height_harmonics(N)
@@ -193,7 +193,8 @@ def fda_period_map_multipliers(fl, method="exact", n_nodes=5, length=8.0, h=1e-5
     mu : ndarray of complex, shape (2,)
         By decreasing modulus.
     """
-    from tps_solver import Lattice, simulate
+    from tps_solver.operators.lattice import Lattice
+    from tps_solver.solvers.fda import simulate
 
     lat = Lattice.planar(n_nodes=n_nodes, length=length, boundary="neumann")
     ts = fl.t0 + phase * fl.period
@@ -227,7 +228,8 @@ def fda_rows(fl, n_nodes=5, periods=4, length=8.0, stability=None, stability_per
         (:func:`fda_period_map_multipliers`), ``mu_err`` (``check_stability``,
         None if it does not exist), ``time`` (the flat run).
     """
-    from tps_solver import Lattice, simulate
+    from tps_solver.operators.lattice import Lattice
+    from tps_solver.solvers.fda import simulate
 
     lat = Lattice.planar(n_nodes=n_nodes, length=length, boundary="neumann")
     T = fl.period
@@ -291,7 +293,7 @@ def flat_comparison(config=None, **overrides):
     True
     """
     cfg = merged_config(FAST, config, overrides)
-    fda = optional("fda")
+    fda = optional("solvers.fda")
     stability = optional("stability")
     grid, skipped = cases(cfg["es"], cfg["Ms"], cfg["fractions"])
     rows, info = [], []
@@ -399,7 +401,7 @@ def render(result, command="python -m validation.flat_layer"):
                      "branch's phase, so Newton can land on a non-flat solution whose nodes mix the two "
                      "phases. These are measured outcomes, not errors of the flat-layer reproduction.")
     if not result["fda"]:
-        lines.append("- FDA: `tps_solver.fda` does not exist yet; FDA rows not measured.")
+        lines.append("- FDA: `tps_solver.solvers.fda` does not exist yet; FDA rows not measured.")
     else:
         for m in ("exact", "ode"):
             for branch in ("stable", "unstable"):

@@ -1,6 +1,6 @@
 r"""Independent references and measured checks for the flat layer, eqs. (17)-(19).
 
-The references here deliberately avoid the code paths of :mod:`tps_solver.flat`:
+The references here deliberately avoid the code paths of :mod:`tps_solver.model.flat`:
 
 * the flight is written in the paper's *first* form of (17)-(18)
   (``zeta = (W0 + cos t0) tau + sin t0 - sin t - tau^2/2Gamma``), whereas
@@ -27,7 +27,7 @@ import os
 import numpy as np
 from scipy import integrate, optimize
 
-from tps_solver.flat import FlatLayer
+from tps_solver.model.flat import FlatLayer
 
 __all__ = [
     "paper_flight", "interior_min_height", "quad_coefficients", "mpmath_coefficient", "ode_impact_map",

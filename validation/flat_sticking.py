@@ -1,6 +1,6 @@
 r"""Independent checks of the flat layer's sticking, touch-and-go and chatter orbits.
 
-The reference here shares no code with :mod:`tps_solver.sticking`:
+The reference here shares no code with :mod:`tps_solver.model.sticking`:
 
 * the ball is integrated in ``mpmath`` (``dps`` 30 for ``e = 0``, 50 with
   chatter) with the flight in the paper's *first* form of (17)-(18),
@@ -27,7 +27,7 @@ import numpy as np
 from scipy import integrate
 
 import tps_solver as tps
-from tps_solver.sticking import sticking_orbit, touch_orbits
+from tps_solver.model.sticking import sticking_orbit, touch_orbits
 
 __all__ = ["reference_orbit", "reference_touch_landings", "reference_height", "reference_velocity", "quad_harmonics",
            "measure", "accuracy_table", "pattern_scan", "pattern_boundaries", "sequence_changes",

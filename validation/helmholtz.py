@@ -1,6 +1,6 @@
 """Validation and benchmark of the Green's-function Helmholtz solver.
 
-Measures, for :class:`tps_solver.helmholtz.HelmholtzSolver`:
+Measures, for :class:`tps_solver.operators.helmholtz.HelmholtzSolver`:
 
 1. :func:`convergence_study` -- the error against smooth manufactured solutions
    (``u = c + exp(-x^2)``, radial and planar even; ``u = x exp(-x^2)``, planar
@@ -26,7 +26,7 @@ import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-from tps_solver.helmholtz import HelmholtzSolver
+from tps_solver.operators.helmholtz import HelmholtzSolver
 from validation.report import FIGURES_DIR, markdown_table, publish
 
 CASES = (("axisymmetric", "uniform"), ("axisymmetric", "quasilog"),

@@ -35,7 +35,7 @@ impacts.  They are kept for comparison.  The soft contact below is the model
 that converges.
 
 These rules live next to the study that evaluates and rejects them
-(``validation/cutoff.py``); the soft contact (:mod:`tps_solver.flat_soft`,
+(``validation/cutoff.py``); the soft contact (:mod:`tps_solver.model.soft_flat`,
 ``simulate(..., method="soft", cutoff=...)``) is the model that converges.
 """
 import numpy as np
@@ -71,7 +71,7 @@ def kernel_matrix(lattice, cutoff):
 
     Examples
     --------
-    >>> from tps_solver.fda import Lattice
+    >>> from tps_solver.solvers.fda import Lattice
     >>> K = kernel_matrix(Lattice.planar(n_nodes=5, length=4.0), 1.0)
     >>> bool(np.allclose(K.sum(axis=1), 1.0))
     True
@@ -124,7 +124,7 @@ def patch_impact(w_minus, contact, e, lattice, free, cutoff):
 
     Examples
     --------
-    >>> from tps_solver.fda import Lattice
+    >>> from tps_solver.solvers.fda import Lattice
     >>> lat = Lattice.planar(n_nodes=5, length=4.0)
     >>> patch_impact(np.array([-1.0, -1.0, -1.0, -1.0, 2.0]), np.array([0]), 0.5, lat,
     ...              np.ones(5, bool), 1.5)
@@ -178,7 +178,7 @@ def regularised_impact(kind, cutoff):
     --------
     >>> import numpy as np
     >>> from tps_solver import FlatLayer
-    >>> from tps_solver.fda import Lattice, simulate, flat_state
+    >>> from tps_solver.solvers.fda import Lattice, simulate, flat_state
     >>> fl = FlatLayer(Gamma=2.5, M=2, e=0.45)
     >>> lat = Lattice.planar(n_nodes=9, length=8.0)
     >>> w, z = flat_state(lat, fl, fl.t0 + 1.0)

@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from tps_solver.fda import simulate
+from tps_solver.solvers.fda import simulate
 from validation.tps_branches import table4
 
 HERE = os.path.dirname(os.path.abspath(__file__))

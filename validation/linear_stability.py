@@ -2,9 +2,9 @@
 
 Three independent computations of the eigenvalues lam = lambda / k^2 = gamma^2 - 1 of (28)-(29):
 
-1. ``tps_solver.linear_stability.secular_roots`` -- roots of (35) with the trivial
+1. ``tps_solver.model.linear_stability.secular_roots`` -- roots of (35) with the trivial
    factors removed analytically (float64, Brent);
-2. ``tps_solver.linear_stability.chebyshev_eigenvalues`` -- Chebyshev discretisation
+2. ``tps_solver.model.linear_stability.chebyshev_eigenvalues`` -- Chebyshev discretisation
    of (28)-(29) (ultraspherical, and collocation for comparison), never using (35);
 3. :func:`shooting_determinant` here -- the 2x2 boundary determinant of (29) built from
    the matrix exponential of the 4th-order ODE (28) in mpmath at 50 digits.  It uses
@@ -22,9 +22,7 @@ import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-from tps_solver.linear_stability import (
-    KAPPA_C, MODES, chebyshev_eigenvalues, growth_rates, secular_roots,
-)
+from tps_solver.model.linear_stability import (KAPPA_C, MODES, chebyshev_eigenvalues, growth_rates, secular_roots)
 
 FIG_DIR = os.path.join(_ROOT, "validation", "figures")
 KAPPAS = (0.1, 0.5, 1.0, 2.0, 5.0)

@@ -21,9 +21,9 @@ import numpy as np
 
 import tps_solver as tps
 from validation.report import markdown_table, one_blas_thread, phase_distance
-from tps_solver.fda import kink_state
-from tps_solver.localized import front_width
-from tps_solver.shooting import find_periodic_orbit
+from tps_solver.solvers.fda import kink_state
+from tps_solver.analyses.localized import front_width
+from tps_solver.solvers.shooting.periodic import find_periodic_orbit
 
 
 def verify(orb, periods=10):
@@ -140,7 +140,7 @@ def soft_flat_multipliers(Gamma=2.5, M=2, e=0.45, cutoff=0.3):
     """Soft contact, flat lattice: multipliers of ``check_stability`` and ``find_periodic_orbit``
     (both from the exact soft monodromy) against the closed-form per-mode soft flat monodromy
     ``SoftFlatOrbit.monodromy``.  Returns rows (case, kind, error, seconds)."""
-    from tps_solver.lattice import lattice_eigenvalues
+    from tps_solver.operators.lattice import lattice_eigenvalues
 
     ref = tps.SoftFlatOrbit(Gamma, M, e, cutoff)
     fl = tps.FlatLayer(Gamma, M, e=e)

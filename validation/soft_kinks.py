@@ -2,7 +2,7 @@
 
 Model: Gamma = 2.5, e = 0.45, M = 2, ``method="soft"`` with ``cutoff = 0.3`` (contact time
 tau_c = 0.09), the planar **Neumann** lattice of the project's default grids
-(``tps_solver.defaults.COARSE_LATTICE``, ``validation.presets``, the kinks of
+(``tps_solver.core.defaults.COARSE_LATTICE``, ``validation.presets``, the kinks of
 ``validation.existence_map``), default sticking rule of the soft integrator
 (capture speed 1e-4, docs/design.md, hazard 10).
 

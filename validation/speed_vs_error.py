@@ -35,7 +35,7 @@ import numpy as np
 
 _ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-from tps_solver import FlatLayer
+from tps_solver.model.flat import FlatLayer
 from validation.report import (FIGURES_DIR, markdown_table, median_time, merged_config,
                                optional_import, publish)
 
@@ -79,7 +79,7 @@ def tps_flat_rows(fl, runs, repeats=5, r_max=8.0):
         ``method="TPS"``, ``problem="flat"``, ``N``, ``n_nodes``, ``converged``,
         ``error`` (max |zeta - Z|), ``time`` (median), ``repeats``.
     """
-    from tps_solver import solve_oscillon
+    from tps_solver.solvers.tps import solve_oscillon
 
     t = fl.t0 + (np.arange(256) + 0.37) * fl.period / 256
     rows = []
@@ -106,7 +106,7 @@ def tps_oscillon_rows(cfg, runs, repeats=5):
     -------
     rows : list of dict
     """
-    from tps_solver import solve_oscillon
+    from tps_solver.solvers.tps import solve_oscillon
 
     rows, sols = [], []
     for N, n in runs:
@@ -154,7 +154,7 @@ def tps_coarse_oscillon_rows(cfg, Ns, n_nodes=6, spacing=15.0, repeats=5):
     -------
     rows : list of dict
     """
-    from tps_solver import solve_oscillon
+    from tps_solver.solvers.tps import solve_oscillon
 
     rows, sols = [], []
     for N in Ns:
@@ -184,7 +184,8 @@ def tps_coarse_oscillon_rows(cfg, Ns, n_nodes=6, spacing=15.0, repeats=5):
 
 
 def _flat_lattice_run(fl, n_nodes, length, method, periods, w, z, ts, tol=None):
-    from tps_solver import Lattice, simulate
+    from tps_solver.operators.lattice import Lattice
+    from tps_solver.solvers.fda import simulate
 
     lat = Lattice.planar(n_nodes=n_nodes, length=length, boundary="neumann")
     kw = {} if tol is None else dict(rtol=tol, atol=tol)
@@ -221,8 +222,9 @@ def fda_kink_rows(fl, nodes=(11, 21), tols=(1e-6, 1e-9), repeats=5, length=8.0):
     -------
     rows : list of dict
     """
-    from tps_solver import Lattice, simulate
-    from tps_solver.fda import kink_state
+    from tps_solver.operators.lattice import Lattice
+    from tps_solver.solvers.fda import simulate
+    from tps_solver.solvers.fda import kink_state
 
     ts = fl.t0 + 0.5
     rows = []
@@ -282,7 +284,7 @@ def brute_force_rows(fl, nodes=(5,), targets=(1e-6,), max_periods=40, repeats=5,
         within ``max_periods``), ``error`` reached, ``time`` (median wall time
         of a run of that many periods), ``history`` (distance per period).
     """
-    from tps_solver import Lattice
+    from tps_solver.operators.lattice import Lattice
 
     ts = fl.t0 + 0.5 * fl.period
     W, Z = float(fl.velocity(ts)), float(fl.height(ts))
@@ -332,9 +334,11 @@ def lattice_cycle_rows(cfg, repeats=5):
         cycle time, if the cycle's error is <= the target).  Empty if
         :func:`~tps_solver.solve_lattice_cycle` does not exist.
     """
-    if optional_import("tps_solver.tps.cycle") is None:
+    if optional_import("tps_solver.solvers.tps.cycle") is None:
         return []
-    from tps_solver import Lattice, simulate, solve_lattice_cycle
+    from tps_solver.operators.lattice import Lattice
+    from tps_solver.solvers.fda import simulate
+    from tps_solver.solvers.tps import solve_lattice_cycle
 
     lat = Lattice.planar(n_nodes=cfg["cycle_nodes"], length=cfg["cycle_length"], boundary="neumann")
     sec, cyc = median_time(lambda: solve_lattice_cycle(lat, Gamma=cfg["Gamma"], M=cfg["M"], e=cfg["e"],
@@ -393,7 +397,7 @@ def tps_reference_for_brute_force(fl, n_nodes, repeats=5, length=8.0):
     -------
     row : dict
     """
-    from tps_solver import solve_kink
+    from tps_solver.solvers.tps import solve_kink
 
     m = max(3, (n_nodes + 1) // 2)
     t = fl.t0 + (np.arange(256) + 0.37) * fl.period / 256
@@ -460,7 +464,7 @@ def speed_vs_error(config=None, **overrides):
     rows = tps_flat_rows(fl, cfg["tps_flat"], reps)
     rows += tps_oscillon_rows(cfg, cfg["tps_osc"], reps)
     rows += tps_coarse_oscillon_rows(cfg, cfg["coarse_Ns"], cfg["coarse_nodes"], cfg["coarse_spacing"], reps)
-    fda = optional_import("tps_solver.fda") is not None
+    fda = optional_import("tps_solver.solvers.fda") is not None
     brute, tps_b, speed = [], [], []
     if fda:
         rows += fda_flat_rows(fl, cfg["fda_flat_nodes"], cfg["fda_flat_tols"], reps, cfg["length"])
@@ -579,7 +583,7 @@ def render(result, figure=None, command="python -m validation.speed_vs_error"):
                      "limit cycle is not the same solution.")
         lines.append("")
     if not result["fda"]:
-        lines += ["The FDA (`tps_solver.fda`) does not exist yet: FDA rows and the brute-force baseline are "
+        lines += ["The FDA (`tps_solver.solvers.fda`) does not exist yet: FDA rows and the brute-force baseline are "
                   "not measured.", ""]
     else:
         lines += ["### Brute force: FDA time stepping back to the limit cycle", "",

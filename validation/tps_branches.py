@@ -3,7 +3,7 @@
 Every function returns its numbers (rows of dicts); ``main()`` prints the tables,
 writes ``validation/sections/tps.md`` and figures under ``validation/figures/``.
 
-Method.  The TPS (``tps_solver.tps``) solves the contact condition (46) for the
+Method.  The TPS (``tps_solver.solvers.tps``) solves the contact condition (46) for the
 contact times with Newton-GMRES.  From the decoupled limit (node spacing much
 larger than the viscous length, where every pattern of flat phases is exact) it
 follows the branch in the coupling nu_c in (0, 1] -- equivalently, in the node
@@ -19,8 +19,8 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from tps_solver.tps.engine import continuation, newton
-from tps_solver.tps.problems import ContinuumProblem, decoupled_spacing
+from tps_solver.solvers.tps.engine import continuation, newton
+from tps_solver.solvers.tps.problems import ContinuumProblem, decoupled_spacing
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FIG = os.path.join(HERE, "figures")

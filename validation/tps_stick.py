@@ -1,4 +1,4 @@
-"""Validation of the impact-and-stick TPS (tps_solver.tps_stick) for e = 0.
+"""Validation of the impact-and-stick TPS (tps_solver.solvers.tps.stick) for e = 0.
 
 Functions (each returns rows of measured numbers; ``main()`` prints markdown tables):
 
@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from tps_solver import tps_stick as ts
+from tps_solver.solvers.tps import stick as ts
 from validation.report import one_blas_thread, phase_distance
 
 GAMMAS = (3.9, 4.1, 4.4)

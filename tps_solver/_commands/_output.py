@@ -1,13 +1,13 @@
 """Output paths of the commands (``--plot``, ``--save``), checked before any computation.
 
 One rule for every file a command writes: a name without an extension gets the
-default one (``.png`` for figures, ``.npz`` for results, see :func:`tps_solver.io.npz_path`),
+default one (``.png`` for figures, ``.npz`` for results, see :func:`tps_solver.core.archive.npz_path`),
 an extension of a figure selects the format matplotlib writes, and the directory must
 exist.  The path returned is the one written, and the commands print it.
 """
 import os
 
-from ..io import npz_path
+from tps_solver.core.archive import npz_path
 
 #: Figure formats the commands accept (matplotlib's file formats).
 FIGURE_FORMATS = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")

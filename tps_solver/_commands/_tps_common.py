@@ -13,7 +13,7 @@ def flags(geometry):
 
 
 def configure(parser, geometry):
-    from .. import defaults as d
+    from tps_solver.core import defaults as d
 
     parser.add_argument("--gamma", type=float, default=d.GAMMA, help=f"plate acceleration Gamma (default {d.GAMMA})")
     parser.add_argument("--e", type=float, default=None,
@@ -41,7 +41,7 @@ def configure(parser, geometry):
     parser.add_argument("--no-continuation", action="store_true", help="plain Newton from the step guess")
     parser.add_argument("--min-shift", action="store_true", help="apply the paper's (64)-(65) (diagnostic)")
     parser.add_argument("--save", metavar="NPZ", default=None,
-                        help="save the solution (tps_solver.io format; '.npz' is appended if missing)")
+                        help="save the solution (tps_solver.core.archive format; '.npz' is appended if missing)")
     parser.add_argument("--plot", metavar="DIR", default=None,
                         help="write the figures (space-time maps of zeta and w - W, snapshots) to DIR "
                              "(created if missing; its parent must exist)")
@@ -85,17 +85,17 @@ def summary(sol):
 
 
 def run(args, geometry):
-    from .. import tps
+    from tps_solver.solvers import tps
 
-    from ._output import figure_directory, result_path
+    from tps_solver._commands._output import figure_directory, result_path
 
     npz = result_path(args.save) if args.save else None
     plot_dir = figure_directory(args.plot) if args.plot else None
-    e, t0 = args.e, args.t0              # neither given: the solvers' default model (tps_solver.defaults)
+    e, t0 = args.e, args.t0              # neither given: the solvers' default model (tps_solver.core.defaults)
     common = dict(Gamma=args.gamma, M=args.M, e=e, t0=t0, n_harmonics=args.N, n_nodes=args.nodes,
                   tol=args.tol, max_iter=args.max_iter, scheme=args.scheme,
                   continuation=not args.no_continuation, min_shift=args.min_shift)
-    from ..budget import Progress
+    from tps_solver.core.budget import Progress
 
     with Progress(f"{'kink' if geometry == 'planar' else 'oscillon'} TPS") as bar:
         common["callback"] = bar.newton
@@ -107,7 +107,7 @@ def run(args, geometry):
     if npz:
         print(f"  saved to {sol.save(npz)}")
     if plot_dir:
-        from ..plotting import plot_solution
+        from tps_solver.plotting import plot_solution
 
         os.makedirs(plot_dir, exist_ok=True)
         for path in plot_solution(sol, plot_dir):

@@ -35,7 +35,7 @@ def configure(parser):
 def run(args):
     import tps_solver as tps
 
-    from .._checks import check_int, check_positive
+    from tps_solver.core.checks import check_int, check_positive
 
     check_positive(args.gamma, "--gamma")
     check_int(args.M, "--M", minimum=1)

@@ -4,7 +4,7 @@
 2. the flat layer reproduced by the TPS (oscillon geometry, Newton from a
    perturbed contact time): errors against the closed form;
 3. the oscillon and the kink TPS on the library's defaults
-   (:mod:`tps_solver.defaults`: e = 0.45, 8 nodes at spacing 20, N = 30;
+   (:mod:`tps_solver.core.defaults`: e = 0.45, 8 nodes at spacing 20, N = 30;
    continuation from the decoupled limit): convergence status and the physical
    checks of the single-contact assumption; then the oscillon on a fine grid
    (20 nodes at spacing 0.21), where the single-contact branch ends at a fold
@@ -37,7 +37,7 @@ MULTIPLIER_TOL = 1e-7
 
 
 def configure(parser):
-    from .. import defaults as d
+    from tps_solver.core import defaults as d
 
     parser.add_argument("--gamma", type=float, default=d.GAMMA, help=f"plate acceleration Gamma (default {d.GAMMA})")
     parser.add_argument("--e", type=float, default=d.E, help=f"restitution (default {d.E}, stable interior)")
@@ -71,7 +71,7 @@ def _mu_text(mu):
 
 def _flat_by_tps(fl, N):
     """TPS (oscillon geometry, no continuation) from tc = t0 + 0.05 cos r; max errors vs the closed form."""
-    from ..tps import solve_oscillon
+    from tps_solver.solvers.tps import solve_oscillon
 
     sol, dt = _timed(lambda: solve_oscillon(
         Gamma=fl.Gamma, M=fl.M, t0=fl.t0, n_harmonics=N, n_nodes=24, r_max=8.0, tol=1e-13,
@@ -91,7 +91,7 @@ def _physics(sol):
 
 
 def summary_rows(Gamma=None, e=None, M=None, N=None, n_nodes=None, size=None):
-    """Run the demo and return the rows of its table (``None``: the value of :mod:`tps_solver.defaults`).
+    """Run the demo and return the rows of its table (``None``: the value of :mod:`tps_solver.core.defaults`).
 
     Returns
     -------
@@ -101,10 +101,10 @@ def summary_rows(Gamma=None, e=None, M=None, N=None, n_nodes=None, size=None):
     flat_ok : bool
         Whether the flat-layer reproduction met its acceptance bounds.
     """
-    from .. import defaults as d
-    from ..flat import FlatLayer
-    from ..lattice import Lattice
-    from ..tps import solve_kink, solve_lattice_cycle, solve_oscillon
+    from tps_solver.core import defaults as d
+    from tps_solver.model.flat import FlatLayer
+    from tps_solver.operators.lattice import Lattice
+    from tps_solver.solvers.tps import solve_kink, solve_lattice_cycle, solve_oscillon
 
     Gamma = d.GAMMA if Gamma is None else Gamma
     e = d.E if e is None else e
@@ -147,7 +147,7 @@ def summary_rows(Gamma=None, e=None, M=None, N=None, n_nodes=None, size=None):
                  f"{fine.spacing:.3g} reached), {dt:.2f} s", "status 4: no single-contact solution "
                  f"below spacing ~{d.FOLD_SPACING_TPS:g}", "expected" if fine.status == 4 else "unexpected"))
 
-    from ..limit_cycles import check_stability
+    from tps_solver.analyses.stability import check_stability
 
     lat = Lattice.planar(**d.COARSE_LATTICE)
     cyc, dt = _timed(lambda: solve_lattice_cycle(lat, Gamma=Gamma, M=M, e=e))
@@ -159,9 +159,9 @@ def summary_rows(Gamma=None, e=None, M=None, N=None, n_nodes=None, size=None):
     else:
         rows.append(("exact lattice cycle + FDA check", cyc.message, "converged", "not converged"))
 
-    stability = _module("limit_cycles")
+    stability = _module("analyses.stability")
     if stability is None:
-        rows.append(("FDA check of flat layer", "tps_solver.limit_cycles not available", "", "n/a"))
+        rows.append(("FDA check of flat layer", "tps_solver.analyses.stability not available", "", "n/a"))
     else:
         chk, dt = _timed(lambda: stability.check_stability(fl, periods=8, n_nodes=5))
         um = np.asarray(chk.uniform_multipliers, dtype=complex)

@@ -59,8 +59,8 @@ def plot(fl, path):
 
 
 def run(args):
-    from ..flat import FlatLayer
-    from ._output import figure_path
+    from tps_solver.model.flat import FlatLayer
+    from tps_solver._commands._output import figure_path
 
     png = figure_path(args.plot) if args.plot else None
     e = args.e

@@ -1,5 +1,5 @@
 """``tps-solver kink``: the TPS kink (Sec. 4.3.1)."""
-from . import _tps_common
+from tps_solver._commands import _tps_common
 
 NAME = "kink"
 #: API parameter -> flag, for error messages.

@@ -28,7 +28,7 @@ def run(args):
 
     import tps_solver as tps
 
-    from .._checks import check_int, check_positive
+    from tps_solver.core.checks import check_int, check_positive
 
     dx = check_positive(args.dx, "--dx")
     length = check_positive(args.length, "--length")

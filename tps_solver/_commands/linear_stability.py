@@ -23,7 +23,7 @@ def configure(parser):
 
 def describe(kh, n_modes, nu=1.0):
     """Return the text table of the leading growth rates at ``kh`` (thickness h = 1)."""
-    from ..linear_stability import MODES, secular_roots
+    from tps_solver.model.linear_stability import MODES, secular_roots
 
     kappa = kh / 2.0
     lines = [f"flat-layer linear stability at k h = {kh:g} (kappa = k h/2 = {kappa:g}, h = 1, nu = {nu:g})",
@@ -41,8 +41,8 @@ def describe(kh, n_modes, nu=1.0):
 
 
 def run(args):
-    from .._checks import check_in_range, check_int, check_positive
-    from ._output import figure_path
+    from tps_solver.core.checks import check_in_range, check_int, check_positive
+    from tps_solver._commands._output import figure_path
 
     check_in_range(args.kh, "--kh", 2e-6, 2e3)
     check_int(args.n_modes, "--n-modes", minimum=1, maximum=1000)
@@ -50,7 +50,7 @@ def run(args):
     png = figure_path(args.plot) if args.plot else None
     print(describe(args.kh, args.n_modes, args.nu))
     if png:
-        from ..plotting import plot_growth_rates
+        from tps_solver.plotting import plot_growth_rates
 
         plot_growth_rates(png, n_modes=args.n_modes, nu=args.nu)
         print(f"wrote {png}")

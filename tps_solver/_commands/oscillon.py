@@ -1,5 +1,5 @@
 """``tps-solver oscillon``: the TPS oscillon (Sec. 4.3.2)."""
-from . import _tps_common
+from tps_solver._commands import _tps_common
 
 NAME = "oscillon"
 #: API parameter -> flag, for error messages.

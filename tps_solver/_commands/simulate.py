@@ -20,7 +20,7 @@ FLAGS = {"n_nodes": "--nodes", "length": "--length", "r_max": "--length", "Gamma
 
 
 def _method_help():
-    from ..fda import METHODS
+    from tps_solver.solvers.fda import METHODS
 
     return ("FDA integrator, a key of tps_solver.METHODS: 'exact' (point impacts, closed-form modal "
             "propagation (55)-(56), the default), 'ode' (point impacts, the paper's Method 2 with a scipy "
@@ -30,7 +30,7 @@ def _method_help():
 
 
 def configure(parser):
-    from ..fda import METHODS
+    from tps_solver.solvers.fda import METHODS
 
     parser.add_argument("case", choices=["kink", "oscillon", "flat"],
                         help="initial state: a kink (pinned planar lattice), a Gaussian bump on the flat "
@@ -63,7 +63,7 @@ def initial_state(case, fl, args):
     """Lattice, start time and initial state for the chosen case."""
     import numpy as np
 
-    from ..fda import Lattice, flat_state, kink_state
+    from tps_solver.solvers.fda import Lattice, flat_state, kink_state
 
     n_default, size_default = LATTICE_DEFAULTS[case]
     n = n_default if args.nodes is None else args.nodes
@@ -119,11 +119,11 @@ def plot(lat, fl, t, Z, path, case, method="exact", cutoff=None):
 def run(args):
     import numpy as np
 
-    from ..fda import simulate
-    from ..flat import FlatLayer
-    from ._output import figure_path
+    from tps_solver.solvers.fda import simulate
+    from tps_solver.model.flat import FlatLayer
+    from tps_solver._commands._output import figure_path
 
-    from ..fda import METHODS
+    from tps_solver.solvers.fda import METHODS
 
     if args.periods < 1:
         raise ValueError(f"--periods must be an integer >= 1, got {args.periods}")

@@ -29,7 +29,7 @@ def configure(parser):
 
 def basin_point(Gamma, e, M, samples, model, cutoff, seed):
     """One map point: the f/M basin fraction of the ball and its binomial error (a picklable task)."""
-    from ..basins import flat_basins
+    from tps_solver.analyses.basins import flat_basins
 
     res = flat_basins(Gamma, e, M=M, n_samples=samples, seed=seed, model=model, cutoff=cutoff)
     return {"flat_fraction": float(res.flat_fraction), "flat_stderr": float(res.flat_stderr),
@@ -41,8 +41,8 @@ def run(args):
 
     import tps_solver as tps
 
-    from .._checks import check_int
-    from ..parallel import param_range
+    from tps_solver.core.checks import check_int
+    from tps_solver.analyses.sweep import param_range
 
     gammas = param_range(*args.gamma, name="--gamma")
     es = param_range(*args.e, name="--e")

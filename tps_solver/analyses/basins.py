@@ -1,0 +1,823 @@
+r"""Basins of attraction of the flat layer: one node, the bouncing ball, point or soft contact.
+
+A flat layer is a single column of the FDA (53) with no coupling: the bouncing
+ball of Luck & Mehta in the plate frame, :math:`\ddot\zeta = g(t) = \sin t -
+1/\Gamma` (16) in flight.  It is multistable (docs/design.md, hazard 9): besides
+the flat orbit of period :math:`T = 2\pi M` (17)-(19) it has chatter-and-stick
+cycles and irregular motion.  :func:`flat_basins` measures the fraction of
+random initial states that reach each attractor.
+
+Models (the rules of :func:`tps_solver.simulate` for a uniform state)
+----------------------------------------------------------------------
+``model="point"``
+    Restitution (11): :math:`w^+ = -e\,w^-`.  An impact slower than
+    ``stick_velocity`` (the tail of a chatter sequence), or any impact when
+    :math:`e = 0`, ends at rest; the ball then *sticks* while
+    :math:`g \le 0` and lifts off when :math:`g` turns positive.
+``model="soft"``
+    The soft contact of cut-off length :math:`\ell` (``cutoff``): while
+    :math:`\zeta < 0` the ball obeys
+    :math:`\ddot\zeta + 2\beta\dot\zeta + \omega_0^2\zeta = 0` with
+    :math:`\tau_c = \ell^2`, :math:`\omega_d = \pi/\tau_c`,
+    :math:`\beta = -\ln e/\tau_c`, so every contact lasts exactly
+    :math:`\tau_c` and returns :math:`w^+ = -e\,w^-`.  Needs :math:`e > 0`
+    (:math:`\beta` is singular at :math:`e = 0`) (docs/design.md, hazard 11).
+    This is the model of ``simulate(..., method="soft-radau")``, which has no
+    sticking rule: a ball micro-chatters through a sticking phase (each
+    contact lasts :math:`\tau_c`, speeds fall by :math:`e` per contact) and
+    leaves at the end of the contact in progress when :math:`g` turns
+    positive, so sticking does not reset it.  ``soft_sticking=True`` adds the
+    rule (docs/design.md, hazard 10): an entry at or below ``stick_velocity``
+    ends at rest, held while :math:`g \le 0`.
+
+Integrators
+-----------
+``integrator="closed_form"`` (default) propagates the ball exactly: flights in
+closed form (the height written with :math:`1-\cos\Delta` and
+:math:`\sin\Delta - \Delta` so that short chatter flights keep their relative
+precision), the next impact as the first root of the height on pieces where it
+is monotone (split at the zeros of :math:`g` and of :math:`w`), contacts in
+closed form.  ``integrator="simulate"`` runs :func:`tps_solver.simulate`
+(``method="exact"`` or ``method="soft-radau"``) on a uniform 3-node Neumann lattice,
+whose coupling vanishes on a uniform state; it is the cross-check (the tests
+compare the two) and the place where a faster soft integrator plugs in.
+
+Classification
+--------------
+Every sample starts at :math:`t_s` = ``t_section`` from a state drawn uniformly
+from the box ``w_range`` x ``zeta_range`` (a free ball), and is followed through
+the stroboscopic map :math:`P` over one forcing cycle :math:`2\pi`
+(:math:`x_k` = the state :math:`(w, \zeta)` and the contact mode at
+:math:`t_s + 2\pi k`).  After each cycle the smallest period
+:math:`p \le` ``p_max`` with :math:`\max_{0\le j<p}|x_{k-j} - x_{k-j-p}|_\infty
+<` ``tol`` (and equal modes) is sought: a full cycle has repeated.  A sample
+with none within ``periods`` periods :math:`T` is *irregular* (chaotic,
+quasi-periodic, or a transient slower than that).  Cycles of two samples are
+one attractor if they have the same period and their points coincide within
+``1e-5`` up to a cyclic shift; the shift gives the sample's *phase* (which
+point it occupies at :math:`t_s + 2\pi k`, :math:`k \equiv 0 \bmod p`), so the
+two phases of the flat orbit, the two sides of a kink, are counted separately
+in ``phase_counts``.
+
+For each attractor, a representative point is polished by Newton's method on
+:math:`P^p(x) = x` and the *multipliers* are the eigenvalues of the central
+finite-difference Jacobian of :math:`P^p` (step ``1e-6``).  Where the cycle
+sticks to the plate the map resets and the multipliers are 0.  ``smooth``
+says whether the forward and backward one-sided Jacobians agree (to 1e-4); if
+not, the map is not differentiable there (a grazing or a sticking threshold)
+and the multipliers are an average of two one-sided derivatives.  Fractions
+carry the binomial standard error :math:`\sqrt{f(1-f)/n}` and a 95% Wilson
+interval (meaningful also at :math:`f = 0` or 1).
+"""
+import math
+
+import numpy as np
+
+from tps_solver.core.bunch import Bunch
+from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+
+__all__ = ["flat_basins", "BasinResult", "ball_cycle"]
+
+MODELS = ("point", "soft")
+INTEGRATORS = ("closed_form", "simulate")
+FREE, STUCK, CONTACT = 0, 1, 2
+MODE_NAMES = ("free", "stuck", "contact")
+_TWO_PI = 2.0 * math.pi
+_MATCH_TOL = 1e-5
+_FD_STEP = 1e-6
+_Z95 = 1.959963984540054
+
+
+class BasinResult(Bunch):
+    """Result of :func:`flat_basins`.
+
+    Attributes
+    ----------
+    attractors : list of Bunch
+        By decreasing count.  Each has ``label`` (str, e.g. ``"f/2"``,
+        ``"f/10 (17 impacts, 1 stick)"``), ``period`` (int, forcing cycles
+        :math:`2\\pi`), ``period_T`` (float, in periods :math:`T`),
+        ``impacts``, ``sticks`` (int, per period of the attractor),
+        ``count``, ``fraction``, ``stderr``, ``interval`` (95% Wilson),
+        ``points`` (ndarray of float, shape (period, 2): :math:`(w, \\zeta)` at
+        :math:`t_s + 2\\pi j`, polished), ``modes`` (list of str),
+        ``multipliers`` (ndarray of complex, shape (2,), by decreasing
+        modulus), ``smooth`` (bool), ``stable`` (bool), ``residual`` (float,
+        :math:`|P^p(x) - x|_\\infty` at the polished point), ``phase_counts``
+        (ndarray of int, shape (period,)), ``is_flat`` (bool: the f/M state,
+        period ``M`` forcing cycles whatever its contact pattern; at small
+        ``e`` it chatters and sticks once per period) and ``mean_transient``
+        (float, cycles until the cycle repeated).
+    fractions, stderr : dict
+        Label -> fraction of the samples and its binomial standard error,
+        including ``"irregular"`` (and ``"failed"`` if any sample failed).
+    irregular : Bunch
+        ``count``, ``fraction``, ``stderr``, ``interval``, and
+        ``near_periods``: dict p -> (count, median return distance) of the
+        irregular samples by the period p <= ``p_max`` that comes closest to
+        repeating over the last cycles (a noisy cycle shows a small distance).
+    flat_fraction, flat_stderr : float
+        Fraction of samples reaching an f/M state (``is_flat``), and its
+        binomial standard error.
+    labels : ndarray of int, shape (n_samples,)
+        Attractor index per sample; -1 irregular, -2 failed.
+    phases : ndarray of int, shape (n_samples,)
+        The sample's phase on its attractor (-1 if none).
+    n_cycles : ndarray of int, shape (n_samples,)
+        Forcing cycles integrated per sample.
+    initial_states : ndarray of float, shape (n_samples, 2)
+        :math:`(w_0, \\zeta_0)` at ``t_section``.
+    converged : bool
+        True if every sample reached a cycle of period <= ``p_max``.
+    status : int
+        0 all classified; 1 some irregular; 2 some integrations failed.
+    message : str
+
+    Examples
+    --------
+    At Gamma = 4.1, e = 0 every sample ends on the flat state, the f/2 orbit with one
+    touch-and-go and one stick per period (:func:`tps_solver.model.sticking.sticking_orbit`):
+
+    >>> res = flat_basins(4.1, 0.0, M=2, n_samples=4, seed=1, periods=40)
+    >>> type(res).__name__, res.status, res.fractions, res.labels.tolist()
+    ('BasinResult', 0, {'f/2 (1 impact, 1 stick)': 1.0, 'irregular': 0.0}, [0, 0, 0, 0])
+    >>> res.flat_fraction, res.attractors[0].is_flat, res.attractors[0].period
+    (1.0, True, 2)
+    """
+
+
+# ------------------------------------------------------------ the single ball
+def _sin_minus(d):
+    """sin(d) - d, accurate for small |d|."""
+    if abs(d) < 0.1:
+        d2 = d * d
+        return -d * d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (1.0 - d2 / 72.0)))
+    return math.sin(d) - d
+
+
+class _Flight:
+    """Free flight from ``(t_a, w_a, z_a)``: velocity and height after a time ``d``."""
+
+    def __init__(self, t_a, w_a, z_a, inv_G):
+        self.t_a, self.w_a, self.z_a, self.inv_G = t_a, w_a, z_a, inv_G
+        self.s, self.c = math.sin(t_a), math.cos(t_a)
+
+    def w(self, d):
+        h = math.sin(0.5 * d)
+        return self.w_a + self.s * math.sin(d) + 2.0 * self.c * h * h - d * self.inv_G
+
+    def z(self, d):
+        h = math.sin(0.5 * d)
+        return (self.z_a + self.w_a * d + 2.0 * self.s * h * h - self.c * _sin_minus(d)
+                - 0.5 * d * d * self.inv_G)
+
+
+def _root(f, a, b):
+    """The root of a monotone f with a sign change on [a, b], to relative precision.
+
+    The bracket is first shrunk geometrically towards ``a`` (a binary search
+    over ``a + (b - a) 2^-j``), so a root many decades smaller than ``b - a``
+    (a chatter flight) is found as precisely as a large one.
+    """
+    from scipy.optimize import brentq
+    fa = f(a)
+    L = b - a
+    lo, hi = 0, 1100                   # sign(f(x(lo))) == sign(f(b)), sign(f(x(hi))) == sign(f(a))
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if (f(a + math.ldexp(L, -mid)) > 0.0) == (fa > 0.0):
+            hi = mid
+        else:
+            lo = mid
+    left, right = a + math.ldexp(L, -hi), a + math.ldexp(L, -lo)
+    if left == right:
+        return right
+    return brentq(f, left, right, xtol=1e-300, rtol=4.0 * np.finfo(float).eps, maxiter=500)
+
+
+def _accel_zeros(t_a, t_b, Gamma):
+    """Zeros of g(t) = sin t - 1/Gamma in (t_a, t_b), sorted."""
+    if Gamma <= 1.0:
+        return []
+    base = math.asin(1.0 / Gamma)
+    out = []
+    k = math.floor((t_a - math.pi) / _TWO_PI) - 1
+    while base + _TWO_PI * k <= t_b + _TWO_PI:
+        for z in (base + _TWO_PI * k, math.pi - base + _TWO_PI * k):
+            if t_a < z < t_b:
+                out.append(z)
+        k += 1
+    return sorted(out)
+
+
+def _next_liftoff(t, Gamma):
+    """First time >= t at which g turns positive (None if Gamma <= 1)."""
+    if Gamma <= 1.0:
+        return None
+    base = math.asin(1.0 / Gamma)
+    k = math.ceil((t - base) / _TWO_PI)
+    tl = base + _TWO_PI * k
+    return tl if tl >= t else tl + _TWO_PI
+
+
+class _ClosedFormBall:
+    """Exact event-driven single ball (module docstring); ``cycle`` maps one forcing cycle."""
+
+    def __init__(self, Gamma, e, model, cutoff, stick_velocity, max_events, soft_sticking=False):
+        self.Gamma, self.e, self.model = Gamma, e, model
+        self.soft_sticking = soft_sticking
+        self.inv_G = 1.0 / Gamma
+        self.stick_velocity, self.max_events = stick_velocity, max_events
+        if model == "soft":
+            self.tau_c = cutoff * cutoff
+            self.omega_d = math.pi / self.tau_c
+            self.beta = -math.log(e) / self.tau_c
+
+    def _g(self, t):
+        return math.sin(t) - self.inv_G
+
+    def _impact(self, t_a, w_a, z_a, t_end):
+        """First root of the height in (t_a, t_end] -> (d, w_minus), or None."""
+        fl = _Flight(t_a, w_a, z_a, self.inv_G)
+        H = t_end - t_a
+        breaks = [0.0] + [z - t_a for z in _accel_zeros(t_a, t_end, self.Gamma)] + [H]
+        pieces = []
+        for a, b in zip(breaks[:-1], breaks[1:]):
+            wa, wb = fl.w(a), fl.w(b)
+            if wa * wb < 0.0:
+                m = _root(fl.w, a, b)
+                pieces += [(a, m), (m, b)]
+            else:
+                pieces.append((a, b))
+        za = fl.z(0.0)
+        for i, (a, b) in enumerate(pieces):
+            zb = fl.z(b)
+            if i > 0 and za == 0.0:
+                return a, fl.w(a)
+            if za > 0.0 and zb <= 0.0:
+                d = b if zb == 0.0 else _root(fl.z, a, b)
+                return d, min(fl.w(d), 0.0)
+            za = zb
+        return None
+
+    def _contact_exit(self, w0, z0):
+        """Soft contact from (w0, z0 <= 0): time to the exit and the exit velocity."""
+        A = z0
+        B = (w0 + self.beta * z0) / self.omega_d
+        if A == 0.0:
+            if B > 0.0:                # at the plate and leaving it
+                return 0.0, w0
+            phi = -math.pi             # entering (w0 <= 0): half an oscillation
+        else:
+            phi = math.atan2(A, B)     # A < 0: phi in (-pi, 0)
+        s = -phi / self.omega_d
+        return s, math.hypot(A, B) * self.omega_d * math.exp(-self.beta * s)
+
+    def _contact_state(self, w0, z0, s):
+        """State a time s < exit time into the contact from (w0, z0)."""
+        A = z0
+        B = (w0 + self.beta * z0) / self.omega_d
+        ex = math.exp(-self.beta * s)
+        c, sn = math.cos(self.omega_d * s), math.sin(self.omega_d * s)
+        z = ex * (A * c + B * sn)
+        w = ex * ((B * self.omega_d - self.beta * A) * c - (A * self.omega_d + self.beta * B) * sn)
+        return w, (z if z < 0.0 else -0.0)
+
+    def advance(self, t, t_end, w, z, mode, events=None):
+        """Propagate from t to t_end; returns (w, z, mode) at t_end; appends (t, kind) to ``events``."""
+        n_events = 0
+        lifted = False                 # just lifted off: g turns positive here, no contact at once
+        while True:
+            if n_events > self.max_events:
+                raise RuntimeError(f"more than {self.max_events} events in one forcing cycle near t = {t:.12g}")
+            if mode == STUCK:
+                tl = t if self._g(t) > 0.0 else _next_liftoff(t, self.Gamma)
+                if tl is None or tl >= t_end:
+                    return 0.0, 0.0, STUCK
+                t, w, z, mode, lifted = tl, 0.0, 0.0, FREE, True
+                if events is not None:
+                    events.append((t, "liftoff"))
+                n_events += 1
+                continue
+            if mode == CONTACT:
+                s, v = self._contact_exit(w, z)
+                if t + s >= t_end:
+                    w, z = self._contact_state(w, z, t_end - t)
+                    return w, z, CONTACT
+                t, w, z, mode = t + s, v, 0.0, FREE
+                continue
+            # free flight; at the plate and not leaving it -> contact now
+            if not lifted and z <= 0.0 and (w < 0.0 or (w == 0.0 and self._g(t) <= 0.0)):
+                hit = (0.0, min(w, 0.0))
+            else:
+                hit = self._impact(t, w, z, t_end)
+            lifted = False
+            if hit is None:
+                fl = _Flight(t, w, z, self.inv_G)
+                d = t_end - t
+                return fl.w(d), max(fl.z(d), 0.0), FREE
+            d, w_minus = hit
+            t = t + d
+            n_events += 1
+            if self.model == "soft" and not (self.soft_sticking and abs(w_minus) <= self.stick_velocity):
+                if events is not None:
+                    events.append((t, "impact"))
+                w, z, mode = w_minus, 0.0, CONTACT
+                continue
+            z = 0.0
+            if abs(w_minus) <= self.stick_velocity or self.e == 0.0:
+                w = 0.0
+                if self._g(t) <= 0.0:
+                    mode = STUCK
+                    if events is not None:
+                        events.append((t, "stick"))
+                    continue
+            else:
+                w = -self.e * w_minus
+            if events is not None:
+                events.append((t, "impact"))
+
+    def cycle(self, t_section, state, events=None):
+        w, z, mode = state
+        return self.advance(t_section, t_section + _TWO_PI, w, z, mode, events)
+
+
+class _SimulateBall:
+    """The same map through :func:`tps_solver.simulate` on a uniform 3-node lattice."""
+
+    def __init__(self, Gamma, e, model, cutoff, stick_velocity, max_events, soft_sticking=False):
+        from tps_solver.operators.lattice import Lattice
+        self.Gamma, self.e, self.model, self.cutoff = Gamma, e, model, cutoff
+        self.stick_velocity, self.max_events = stick_velocity, max_events
+        self.lattice = Lattice.planar(n_nodes=3, length=100.0)
+
+    def cycle(self, t_section, state, events=None):
+        from tps_solver.solvers.fda import simulate
+        w, z, mode = state
+        kw = dict(t_start=t_section, t_end=t_section + _TWO_PI)
+        if self.model == "soft":
+            run = simulate(self.lattice, self.Gamma, self.e, np.full(3, w), np.full(3, z), method="soft-radau",
+                           cutoff=self.cutoff, **kw)
+        else:
+            run = simulate(self.lattice, self.Gamma, self.e, np.full(3, w), np.full(3, z), method="exact",
+                           stuck0=np.full(3, mode == STUCK), stick_velocity=self.stick_velocity,
+                           max_events_per_cycle=3 * self.max_events, **kw)
+        if not run.success:
+            raise RuntimeError(run.message)
+        if events is not None:
+            for ev in run.events[run.events.node == 0]:
+                events.append((float(ev.t), str(ev.kind)))
+        w, z = float(run.w[0]), float(run.zeta[0])
+        if self.model == "soft":
+            return w, z, CONTACT if z < 0.0 else FREE
+        return w, z, STUCK if run.stuck[0] else FREE
+
+
+def _make_ball(Gamma, e, model, cutoff, stick_velocity, max_events, integrator, soft_sticking=False):
+    cls = _ClosedFormBall if integrator == "closed_form" else _SimulateBall
+    return cls(Gamma, e, model, cutoff, stick_velocity, max_events, soft_sticking)
+
+
+def ball_cycle(Gamma, e, w0, zeta0, n_cycles=1, t_section=0.0, *, model="point", cutoff=None, stuck=False,
+               stick_velocity=1e-6, integrator="closed_form"):
+    r"""Stroboscopic states of one node (the bouncing ball) at ``t_section + 2*pi*k``.
+
+    Parameters
+    ----------
+    Gamma : float
+        Plate acceleration, > 0.
+    e : float
+        Restitution in [0, 1) (in (0, 1) for ``model="soft"``).
+    w0, zeta0 : float
+        State at ``t_section`` (``zeta0 >= 0`` for point impacts; < 0 is in
+        contact for the soft model).
+    n_cycles : int
+        Forcing cycles :math:`2\pi`, >= 1.
+    t_section : float
+    model : {"point", "soft"}
+    cutoff : float, optional
+        Soft-contact length :math:`\ell` (``model="soft"`` only).
+    stuck : bool
+        Start stuck to the plate (point impacts, ``w0 = zeta0 = 0``).
+    stick_velocity : float
+        Impact speed at or below which a point impact ends at rest.
+    integrator : {"closed_form", "simulate"}
+
+    Returns
+    -------
+    states : ndarray of float, shape (n_cycles + 1, 2)
+        :math:`(w, \zeta)` at ``t_section + 2*pi*k``, k = 0..n_cycles.
+    events : list of (float, str)
+        Times (as if the run were continuous) and kinds ("impact", "stick", "liftoff").
+
+    Examples
+    --------
+    >>> import tps_solver as tps
+    >>> fl = tps.FlatLayer(2.5, 2, 0.45)
+    >>> ts = fl.t0 + 1.0
+    >>> x, ev = ball_cycle(2.5, 0.45, fl.velocity(ts), fl.height(ts), n_cycles=2, t_section=ts)
+    >>> bool(np.allclose(x[2], x[0], atol=1e-12)), [kind for _, kind in ev]
+    (True, ['impact'])
+    """
+    Gamma, e, model, cutoff = _check_model(Gamma, e, model, cutoff)
+    n_cycles = check_int(n_cycles, "n_cycles", minimum=1)
+    t_section = check_real(t_section, "t_section")
+    w0, zeta0 = check_real(w0, "w0"), check_real(zeta0, "zeta0")
+    if model == "point" and zeta0 < 0.0:
+        raise ValueError(f"zeta0 must be >= 0 for point impacts, got {zeta0}")
+    if stuck and (w0 != 0.0 or zeta0 != 0.0 or model != "point"):
+        raise ValueError("stuck=True needs model='point' and w0 = zeta0 = 0")
+    integrator = check_choice(integrator, "integrator", INTEGRATORS)
+    ball = _make_ball(Gamma, e, model, cutoff, float(stick_velocity), 10000, integrator)
+    mode = STUCK if stuck else (CONTACT if zeta0 < 0.0 else FREE)
+    state = (w0, zeta0, mode)
+    out, events = [(w0, zeta0)], []
+    for k in range(n_cycles):
+        cyc = []
+        state = ball.cycle(t_section, state, cyc)
+        events += [(t + _TWO_PI * k, kind) for t, kind in cyc]
+        out.append(state[:2])
+    return np.array(out), events
+
+
+# ------------------------------------------------------------- classification
+def _dist(x, y):
+    if x[2] != y[2]:
+        return math.inf
+    return max(abs(x[0] - y[0]), abs(x[1] - y[1]))
+
+
+#: Strobe points closer than this are one point of a cycle that has not converged yet.
+_CONVERGING = 1e-3
+
+
+def _near_period(states, p_max):
+    """Smallest p whose return distance (w, zeta only) is within twice the best, and that distance."""
+    K = len(states) - 1
+    d = []
+    for p in range(1, min(p_max, K // 2) + 1):
+        d.append(max(max(abs(states[K - j][0] - states[K - j - p][0]), abs(states[K - j][1] - states[K - j - p][1]))
+                     for j in range(p)))
+    best = min(d)
+    p = next(i for i, v in enumerate(d) if v <= 2.0 * best) + 1
+    return p, float(d[p - 1])
+
+
+def _basin_sample(Gamma, e, model, cutoff, w0, zeta0, t_section, p_max, max_cycles, tol, stick_velocity,
+                  integrator, max_events, soft_sticking=False):
+    """Follow one sample to its cycle (module docstring); a picklable sweep task."""
+    ball = _make_ball(Gamma, e, model, cutoff, stick_velocity, max_events, integrator, soft_sticking)
+    states = [(w0, zeta0, FREE)]
+    counts = []
+    try:
+        for k in range(1, max_cycles + 1):
+            ev = []
+            states.append(ball.cycle(t_section, states[-1], ev))
+            counts.append((sum(kind == "impact" for _, kind in ev), sum(kind == "stick" for _, kind in ev)))
+            for p in range(1, min(p_max, k // 2) + 1):
+                if all(_dist(states[k - j], states[k - j - p]) < tol for j in range(p)):
+                    if any(p % d == 0 and all(_dist(states[k - j], states[k - j - d]) < _CONVERGING
+                                              for j in range(d)) for d in range(1, p)):
+                        # a shorter cycle is still converging (e.g. an f/1 orbit with a multiplier
+                        # near -1 repeats after 2 cycles first): follow it until it repeats itself
+                        continue
+                    pts = states[k - p + 1:k + 1]
+                    imp = sum(c[0] for c in counts[k - p:k])
+                    stk = sum(c[1] for c in counts[k - p:k])
+                    return dict(status="periodic", period=p, n_cycles=k, first_index=k - p + 1,
+                                points=[tuple(map(float, s[:2])) + (int(s[2]),) for s in pts],
+                                impacts=int(imp), sticks=int(stk), message="")
+    except RuntimeError as exc:
+        return dict(status="failed", period=0, n_cycles=len(states) - 1, first_index=0, points=[],
+                    impacts=0, sticks=0, message=str(exc))
+    near, dist = _near_period(states, p_max)
+    return dict(status="irregular", period=0, n_cycles=max_cycles, first_index=0,
+                points=[tuple(map(float, states[-1][:2])) + (int(states[-1][2]),)], impacts=0, sticks=0,
+                message="", near_period=near, near_distance=dist)
+
+
+def _period_map(ball, t_section, x, p):
+    s = x
+    for _ in range(p):
+        s = ball.cycle(t_section, s)
+    return s
+
+
+def _jacobian(ball, t_section, x, p, h):
+    """Central, forward and backward FD Jacobians of P^p at x (mode kept)."""
+    base = _period_map(ball, t_section, x, p)
+    Jc, Jf, Jb = np.zeros((2, 2)), np.zeros((2, 2)), np.zeros((2, 2))
+    for i in range(2):
+        xp, xm = list(x), list(x)
+        xp[i] += h
+        xm[i] -= h
+        fp = _period_map(ball, t_section, tuple(xp), p)
+        fm = _period_map(ball, t_section, tuple(xm), p)
+        for j in range(2):
+            Jc[j, i] = (fp[j] - fm[j]) / (2 * h)
+            Jf[j, i] = (fp[j] - base[j]) / h
+            Jb[j, i] = (base[j] - fm[j]) / h
+    return Jc, Jf, Jb, base
+
+
+def _admissible(q):
+    """A strobe point whose +-FD-step perturbations stay in the same mode (a base for the FD Jacobian)."""
+    return (q[2] == FREE and q[1] > 100 * _FD_STEP) or (q[2] == CONTACT and q[1] < -100 * _FD_STEP)
+
+
+def _analyse_cycle(ball, t_section, pts, p):
+    """Polish a p-cycle by Newton on P^p(x) = x and compute its multipliers.
+
+    Returns the polished cycle (entry j at the strobe index of ``pts[j]``), the
+    multipliers, whether the map is smooth there, and the residual.
+    """
+    pts = [tuple(q) for q in pts]
+    base = [j for j, q in enumerate(pts) if _admissible(q)]
+    j0 = base[0] if base else 0
+    x = pts[j0]
+    f = _period_map(ball, t_section, x, p)
+    res = _dist(f, x)
+    if base:
+        for _ in range(6):
+            if not res > 1e-14:
+                break
+            J, _, _, f = _jacobian(ball, t_section, x, p, _FD_STEP)
+            try:
+                dx = np.linalg.solve(J - np.eye(2), [x[0] - f[0], x[1] - f[1]])
+            except np.linalg.LinAlgError:
+                break
+            xn = (x[0] + dx[0], x[1] + dx[1], x[2])
+            if not _admissible(xn) or np.max(np.abs(dx)) > _MATCH_TOL:
+                break
+            rn = _dist(_period_map(ball, t_section, xn, p), xn)
+            if not rn < res:
+                break
+            x, res = xn, rn
+        Jc, Jf, Jb, _ = _jacobian(ball, t_section, x, p, _FD_STEP)
+        smooth = bool(np.max(np.abs(Jf - Jb)) <= 1e-4 * (1.0 + np.max(np.abs(Jc))))
+        mu = np.linalg.eigvals(Jc).astype(complex)
+        mu[np.abs(mu) < 1e-9] = 0.0
+        mu = mu[np.argsort(-np.abs(mu), kind="stable")]
+    elif all(q[2] == STUCK for q in pts):
+        smooth, mu = True, np.zeros(2, dtype=complex)        # stuck at every section: the map resets
+    else:
+        smooth, mu = False, np.full(2, np.nan, dtype=complex)
+    cyc = [x]
+    for _ in range(p - 1):
+        cyc.append(ball.cycle(t_section, cyc[-1]))
+    cyc = cyc[p - j0:] + cyc[:p - j0]
+    return cyc, mu, smooth, float(res)
+
+
+def _wilson(k, n):
+    f = k / n
+    z2 = _Z95 * _Z95
+    den = 1.0 + z2 / n
+    c = (f + z2 / (2 * n)) / den
+    h = _Z95 * math.sqrt(f * (1 - f) / n + z2 / (4 * n * n)) / den
+    return (max(0.0, c - h), min(1.0, c + h))
+
+
+def _stats(k, n):
+    f = k / n
+    return dict(count=int(k), fraction=f, stderr=math.sqrt(f * (1.0 - f) / n), interval=_wilson(k, n))
+
+
+def _pattern(impacts, sticks):
+    parts = []
+    if impacts:
+        parts.append(f"{impacts} impact" + ("s" if impacts != 1 else ""))
+    if sticks:
+        parts.append(f"{sticks} stick" + ("s" if sticks != 1 else ""))
+    return ", ".join(parts) or "no contact"
+
+
+def _check_model(Gamma, e, model, cutoff):
+    Gamma = check_positive(Gamma, "Gamma")
+    e = check_restitution(e, "e")
+    model = check_choice(model, "model", MODELS)
+    if model == "soft":
+        if cutoff is None:
+            raise ValueError("cutoff must be a finite number > 0 when model='soft', got None")
+        cutoff = check_positive(cutoff, "cutoff")
+        if cutoff * cutoff >= _TWO_PI:
+            raise ValueError(f"cutoff must give a contact time cutoff**2 < 2*pi, got {cutoff!r}")
+        if e == 0.0:
+            raise ValueError("e must be in (0, 1) for model='soft': the damping -ln(e)/tau_c is singular at "
+                             "e = 0 (docs/design.md, hazard 11); use model='point' for e = 0")
+    elif cutoff is not None:
+        raise ValueError(f"cutoff is only used with model='soft', got cutoff={cutoff!r} with model='point'")
+    return Gamma, e, model, cutoff
+
+
+def _check_range(value, name, low_bound=None):
+    arr = check_array(value, name, shape=(2,))
+    if not arr[0] < arr[1]:
+        raise ValueError(f"{name} must be (low, high) with low < high, got {tuple(arr)}")
+    if low_bound is not None and arr[0] < low_bound:
+        raise ValueError(f"{name} must lie in [{low_bound}, inf), got {tuple(arr)}")
+    return float(arr[0]), float(arr[1])
+
+
+def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None, periods=200, *,
+                p_max=None, tol=1e-8, t_section=0.0, w_range=None, zeta_range=None, stick_velocity=1e-6,
+                integrator="closed_form", soft_sticking=False, max_events_per_cycle=10000, executor="serial",
+                store=None, progress=False):
+    r"""Fractions of random initial states of one node that reach each attractor.
+
+    See the module docstring for the models and how attractors are classified.
+
+    Parameters
+    ----------
+    Gamma : float
+        Plate acceleration, > 0.
+    e : float
+        Restitution in [0, 1) (in (0, 1) for ``model="soft"``).
+    M : int
+        The flat orbit's period is :math:`T = 2\pi M` (sets ``is_flat``, the
+        unit of ``periods`` and the default sampling box).
+    n_samples : int
+        Number of random initial states, >= 1.
+    seed : int or None
+        Seed of ``numpy.random.default_rng``; the states are drawn in order, so
+        the first ``n`` samples of a larger run are the samples of a run with
+        ``n_samples = n``.
+    model : {"point", "soft"}
+    cutoff : float, optional
+        Soft-contact length :math:`\ell > 0` (``model="soft"`` only).
+    periods : int
+        Longest integration per sample, in periods :math:`T` (``periods * M``
+        forcing cycles).
+    p_max : int, optional
+        Longest cycle sought, in forcing cycles; default ``8 * M``.
+    tol : float
+        Return distance (max norm) of a repeated cycle.
+    t_section : float
+        Phase of the stroboscopic section and of the initial states.
+    w_range, zeta_range : (float, float), optional
+        Box of initial states; default :math:`w_0 \in [-\pi M/\Gamma, \pi M/\Gamma]`
+        (the flat orbit's take-off speed scale :math:`T/2\Gamma`) and
+        :math:`\zeta_0 \in [0, (\pi M)^2/2\Gamma]` (its height scale :math:`T^2/8\Gamma`).
+    stick_velocity : float
+        Point impacts at or below this speed end at rest (as in :func:`~tps_solver.simulate`).
+    integrator : {"closed_form", "simulate"}
+    soft_sticking : bool
+        Soft model only, closed form only: a contact entered at a speed at or
+        below ``stick_velocity`` ends at rest, held while :math:`g \le 0`
+        (the sticking rule proposed in (docs/design.md, hazard 10)).  The default
+        ``False`` is the model of ``simulate(..., method="soft-radau")``, which has no
+        such rule: a ball then micro-chatters through every sticking phase and
+        leaves it at a phase set by the chatter, so sticking does not reset it.
+    max_events_per_cycle : int
+        A sample with more events in a forcing cycle fails (``labels == -2``).
+    executor, store, progress
+        Passed to :func:`~tps_solver.analyses.sweep.sweep` (one point per sample);
+        default in this process.
+
+    Returns
+    -------
+    BasinResult
+
+    Examples
+    --------
+    >>> res = flat_basins(4.1, 0.0, M=2, n_samples=4, seed=1, periods=40)
+    >>> [(a.label, a.count, a.multipliers.tolist()) for a in res.attractors]
+    [('f/2 (1 impact, 1 stick)', 4, [0j, 0j])]
+    >>> round(res.flat_fraction, 3), res.converged
+    (1.0, True)
+    """
+    from tps_solver.analyses.sweep import sweep
+
+    Gamma, e, model, cutoff = _check_model(Gamma, e, model, cutoff)
+    M = check_int(M, "M", minimum=1)
+    n_samples = check_int(n_samples, "n_samples", minimum=1)
+    if seed is not None:
+        seed = check_int(seed, "seed", minimum=0)
+    periods = check_int(periods, "periods", minimum=1)
+    p_max = 8 * M if p_max is None else check_int(p_max, "p_max", minimum=1)
+    tol = check_positive(tol, "tol")
+    t_section = check_real(t_section, "t_section")
+    scale_w = math.pi * M / Gamma
+    w_lo, w_hi = (-scale_w, scale_w) if w_range is None else _check_range(w_range, "w_range")
+    z_lo, z_hi = ((0.0, (math.pi * M) ** 2 / (2.0 * Gamma)) if zeta_range is None
+                  else _check_range(zeta_range, "zeta_range", 0.0))
+    stick_velocity = check_positive(stick_velocity, "stick_velocity")
+    integrator = check_choice(integrator, "integrator", INTEGRATORS)
+    if not isinstance(soft_sticking, (bool, np.bool_)):
+        raise ValueError(f"soft_sticking must be True or False, got {soft_sticking!r}")
+    if soft_sticking and (model != "soft" or integrator != "closed_form"):
+        raise ValueError("soft_sticking=True needs model='soft' and integrator='closed_form'")
+    max_events = check_int(max_events_per_cycle, "max_events_per_cycle", minimum=1)
+    max_cycles = periods * M
+    if 2 * p_max > max_cycles:
+        raise ValueError(f"periods must give at least 2 * p_max = {2 * p_max} forcing cycles, "
+                         f"got periods * M = {max_cycles}")
+
+    rng = np.random.default_rng(seed)
+    u = rng.random((n_samples, 2))
+    w0 = w_lo + (w_hi - w_lo) * u[:, 0]
+    z0 = z_lo + (z_hi - z_lo) * u[:, 1]
+    common = dict(Gamma=Gamma, e=e, model=model, cutoff=cutoff, t_section=t_section, p_max=p_max,
+                  max_cycles=max_cycles, tol=tol, stick_velocity=stick_velocity, integrator=integrator,
+                  max_events=max_events, soft_sticking=bool(soft_sticking))
+    params = [dict(common, w0=float(a), zeta0=float(b)) for a, b in zip(w0, z0)]
+    samples = sweep(_basin_sample, params, executor=executor, store=store, progress=progress)
+
+    ball = _make_ball(Gamma, e, model, cutoff, stick_velocity, max_events, integrator, bool(soft_sticking))
+    attractors, raw = [], []                 # raw: (canonical points (index = 0 mod p), period)
+    labels = np.full(n_samples, -1, dtype=int)
+    phases = np.full(n_samples, -1, dtype=int)
+    transients = []
+    for i, s in enumerate(samples):
+        if s["status"] == "failed":
+            labels[i] = -2
+            continue
+        if s["status"] != "periodic":
+            continue
+        p, k1, pts = s["period"], s["first_index"], s["points"]
+        found = None
+        for a, (canon, pa) in enumerate(raw):
+            if pa != p:
+                continue
+            for shift in range(p):
+                if all(_dist(pts[j], canon[(j + shift) % p]) < _MATCH_TOL for j in range(p)):
+                    found = (a, (shift - k1) % p)
+                    break
+            if found:
+                break
+        if found is None:
+            r = (-k1) % p                    # rotate so that entry 0 sits at a strobe index = 0 mod p
+            canon = [pts[(j + r) % p] for j in range(p)]
+            raw.append((canon, p))
+            attractors.append(dict(period=p, impacts=s["impacts"], sticks=s["sticks"], members=[], first=i,
+                                   k1=k1, pts=pts))
+            transients.append([])
+            found = (len(raw) - 1, 0)
+        a, ph = found
+        labels[i], phases[i] = a, ph
+        attractors[a]["members"].append(i)
+        transients[a].append(s["n_cycles"])
+
+    out = []
+    names = {}
+    for a, info in enumerate(attractors):
+        p = info["period"]
+        cyc, mu, smooth, res = _analyse_cycle(ball, t_section, info["pts"], p)
+        r = (-info["k1"]) % p
+        cyc = [cyc[(j + r) % p] for j in range(p)]
+        is_flat = p == M
+        label = f"f/{p}" if (info["impacts"], info["sticks"]) == (p // M if p % M == 0 else -1, 0) \
+            else f"f/{p} ({_pattern(info['impacts'], info['sticks'])})"
+        if label in names:
+            names[label] += 1
+            label = f"{label} #{names[label]}"
+        else:
+            names[label] = 1
+        ph = np.bincount(phases[labels == a], minlength=p)
+        st = _stats(len(info["members"]), n_samples)
+        out.append(Bunch(label=label, period=p, period_T=p / M, impacts=info["impacts"], sticks=info["sticks"],
+                         **st, points=np.array([c[:2] for c in cyc], dtype=float),
+                         modes=[MODE_NAMES[c[2]] for c in cyc], multipliers=mu, smooth=smooth,
+                         stable=bool(np.max(np.abs(mu)) < 1.0), residual=res, phase_counts=ph,
+                         is_flat=bool(is_flat), mean_transient=float(np.mean(transients[a]))))
+    order = sorted(range(len(out)), key=lambda a: (-out[a].count, a))
+    remap = {old: new for new, old in enumerate(order)}
+    out = [out[a] for a in order]
+    labels = np.array([remap.get(x, x) if x >= 0 else x for x in labels], dtype=int)
+
+    n_irr = int(np.sum(labels == -1))
+    n_fail = int(np.sum(labels == -2))
+    irregular = Bunch(**_stats(n_irr, n_samples))
+    near = {}
+    for s in samples:
+        if s["status"] == "irregular":
+            near.setdefault(s["near_period"], []).append(s["near_distance"])
+    irregular.near_periods = {p: (len(d), float(np.median(d))) for p, d in sorted(near.items())}
+    fractions = {a.label: a.fraction for a in out}
+    stderr = {a.label: a.stderr for a in out}
+    fractions["irregular"], stderr["irregular"] = irregular.fraction, irregular.stderr
+    if n_fail:
+        fs = _stats(n_fail, n_samples)
+        fractions["failed"], stderr["failed"] = fs["fraction"], fs["stderr"]
+    flat = [a for a in out if a.is_flat]
+    flat_fraction = sum(a.fraction for a in flat)
+    flat_stderr = math.sqrt(flat_fraction * (1.0 - flat_fraction) / n_samples)
+    if n_fail:
+        status = 2
+        first = next(s["message"] for s in samples if s["status"] == "failed")
+        message = (f"{n_fail} of {n_samples} samples failed ({first}); raise max_events_per_cycle or "
+                   f"stick_velocity if they chatter")
+    elif n_irr:
+        status = 1
+        message = (f"{n_irr} of {n_samples} samples did not repeat a cycle of period <= p_max = {p_max} "
+                   f"forcing cycles within {periods} periods; they are counted as irregular. If they are slow "
+                   f"transients, raise periods or p_max (or loosen tol)")
+    else:
+        status, message = 0, f"all {n_samples} samples reached one of {len(out)} periodic attractors"
+    return BasinResult(
+        attractors=out, fractions=fractions, stderr=stderr, irregular=irregular, flat_fraction=flat_fraction,
+        flat_stderr=flat_stderr, labels=labels, phases=phases,
+        n_cycles=np.array([s["n_cycles"] for s in samples], dtype=int),
+        initial_states=np.column_stack((w0, z0)), converged=status == 0, status=status, message=message,
+        Gamma=Gamma, e=e, M=M, model=model, cutoff=cutoff, n_samples=n_samples, seed=seed, periods=periods,
+        p_max=p_max, tol=tol, t_section=t_section, integrator=integrator, soft_sticking=bool(soft_sticking))

@@ -1,0 +1,773 @@
+r"""Pseudo-arclength continuation of periodic orbits: :func:`continue_branch` and :class:`Branch`.
+
+One verb, as in BifurcationKit.jl's ``continuation``: ``continue_branch(start,
+parameter, bounds)`` follows the family of periodic orbits through ``start`` in
+one parameter, passes around folds, and returns a :class:`Branch` with the
+stability of every point and its special points.
+
+The engine
+----------
+A branch is a curve :math:`y(s) = (x(s), p(s))` of solutions of
+:math:`F(x, p) = 0`, :math:`x \in \mathbb R^n`.  Each step predicts along the unit
+tangent, :math:`y^{(0)} = y_k + h\,\tau_k`, and corrects by Newton's method on
+Keller's bordered system
+
+.. math:: F(y) = 0, \qquad \tau_k\cdot(y - y^{(0)}) = 0 ,
+
+which stays regular at a fold, where :math:`\partial F/\partial x` is singular
+but :math:`[\partial_x F\ \ \partial_p F]` has full rank.  The new tangent solves
+:math:`[\partial_x F\ \ \partial_p F]\,\tau = 0`, :math:`\tau_k\cdot\tau = 1`
+(normalised), so its orientation is kept through the fold.  A step whose
+corrector fails is halved; a step that converges fast is lengthened (up to
+``max_step``).
+
+Special points
+--------------
+Between consecutive points the test functions are watched for a sign change:
+
+* ``"fold"`` -- the parameter component of the tangent, :math:`\tau_p`
+  (the parameter turns back: a saddle-node, a Floquet multiplier through +1);
+* ``"period_doubling"`` -- :math:`\det(I + \mathcal M)` of the monodromy
+  :math:`\mathcal M` (a real multiplier through -1);
+
+and each one found is located by bisection in arclength to ``tol_special``
+(relative) before the branch goes on.  Every point carries its Floquet
+multipliers and ``stable`` (all :math:`|\mu| < 1`).
+
+Problems
+--------
+``start`` decides the problem that is continued:
+
+* a :class:`~tps_solver.FlatLayer` (single-bounce orbit; parameter ``"Gamma"``
+  or ``"e"``): :math:`F(t_0, p) = (2\Gamma/T)\cos t_0 - (1 - e)/(1 + e)`, the
+  periodicity condition (19); multipliers of the exact impact map;
+* a :class:`~tps_solver.solvers.tps.LatticeCycle` (exact single-contact lattice cycle;
+  parameter ``"spacing"``, ``"Gamma"`` or ``"e"``): the contact condition (46)
+  of :mod:`tps_solver.solvers.tps.cycle` in the contact times, on the lattice scaled to
+  the node spacing; multipliers from the FDA period map by
+  :func:`~tps_solver.find_periodic_orbit` (``multipliers=True``);
+* a :class:`~tps_solver.solvers.shooting.periodic.ShootingOrbit` (any contact pattern; parameter
+  ``"Gamma"``, ``"e"`` or, for the soft contact, ``"cutoff"``): the shooting
+  equation :math:`P(x; p) = x` of the FDA period map at the orbit's section, with
+  a dense central-difference Jacobian (small lattices) whose eigenvalues are the
+  multipliers.
+"""
+import math
+import time
+
+import numpy as np
+
+from tps_solver.core.checks import check_choice, check_int, check_positive, check_real
+from tps_solver.core.bunch import Bunch
+from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
+
+__all__ = ["continue_branch", "Branch", "load_branch", "BRANCH_STATUS"]
+
+BRANCH_STATUS = {
+    0: "reached a bound of the parameter interval",
+    1: "point limit reached",
+    2: "the corrector failed at the smallest step (the branch cannot be followed further)",
+    3: "the orbit stopped existing (not admissible, or the problem refused the point)",
+    5: "interrupted (KeyboardInterrupt); the points so far are returned",
+}
+
+_FORMAT = ("tps_solver.Branch", 1)
+
+
+class Branch(Bunch):
+    r"""A branch of periodic orbits from :func:`continue_branch`.
+
+    Attributes
+    ----------
+    parameter : str
+        Name of the continued parameter.
+    parameter_values : ndarray of float, shape (k,)
+    states : ndarray of float, shape (k, n)
+        The unknowns of the problem at each point (``t0`` for a flat layer, the
+        contact times for a lattice cycle).
+    stable : ndarray of bool, shape (k,)
+        All Floquet multipliers inside the unit circle.
+    multipliers : ndarray of complex, shape (k, m)
+        Multipliers per point, by decreasing modulus (NaN where not computed).
+    special_points : list of (str, float)
+        ``(kind, parameter value)`` with kind ``"fold"`` or ``"period_doubling"``.
+    special_details : list of dict
+        Per special point: ``kind``, ``value``, ``index`` (the point after it),
+        ``state``, ``multipliers``.
+    status : int
+        A code of :data:`BRANCH_STATUS`.
+    message : str
+    success : bool
+        True when the branch ended at a bound or at the point limit.
+    problem : str
+        ``"flat"`` or ``"lattice_cycle"``.
+    context : dict
+        The fixed parameters (Gamma, e, M, ...).
+    time : float
+
+    Examples
+    --------
+    The flat layer continued in Gamma from 2.5: it loses stability by a period
+    doubling at the upper end of :meth:`FlatLayer.stability_window`, and every state is the
+    launch phase ``t0`` of that Gamma:
+
+    >>> from tps_solver import FlatLayer
+    >>> br = continue_branch(FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 2.7))
+    >>> br.status, br.problem, [kind for kind, _ in br.special_points], br.stable[[0, -1]].tolist()
+    (0, 'flat', ['period_doubling'], [True, False])
+    >>> bool(abs(br.special_points[0][1] - FlatLayer.stability_window(0.45, 2)[1]) < 1e-8)
+    True
+    >>> bool(abs(br.states[-1, 0] - FlatLayer(br.parameter_values[-1], 2, e=0.45).t0) < 1e-10)
+    True
+    """
+
+    def save(self, path):
+        """Write the branch to ``path`` (``.npz`` appended if missing); returns the path written."""
+        path = str(path)
+        if not path.endswith(".npz"):
+            path += ".npz"
+        kinds = np.array([k for k, _ in self.special_points], dtype=str)
+        values = np.array([v for _, v in self.special_points], dtype=float)
+        np.savez_compressed(
+            path, format=np.array(_FORMAT[0]), format_version=np.array(_FORMAT[1]),
+            parameter=np.array(self.parameter), parameter_values=self.parameter_values,
+            states=self.states, stable=self.stable, multipliers=self.multipliers,
+            special_kinds=kinds, special_values=values, status=np.array(self.status),
+            message=np.array(self.message), problem=np.array(self.problem),
+            context_keys=np.array(list(self.context), dtype=str),
+            context_values=np.array([float(v) for v in self.context.values()]))
+        return path
+
+    def plot(self, path=None, ax=None):
+        """Draw max|mu| against the parameter (points marked stable or unstable) with the special points.
+
+        Parameters
+        ----------
+        path : str, optional
+            Write the figure there (PNG).
+        ax : matplotlib Axes, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(6.5, 4))
+        else:
+            fig = ax.figure
+        p = self.parameter_values
+        rho = np.nanmax(np.abs(self.multipliers), axis=1) if self.multipliers.size else np.full(p.size, np.nan)
+        ax.plot(p, rho, "-", color="0.7", lw=0.8)
+        for mask, style, label in ((self.stable, "o", "stable"), (~self.stable, "x", "unstable")):
+            ax.plot(p[mask], rho[mask], style, ms=3, color="C0" if label == "stable" else "C1", label=label)
+        for kind, value in self.special_points:
+            ax.axvline(value, color="C3" if kind == "fold" else "C2", lw=0.8, ls=":")
+            ax.annotate(kind.replace("_", " "), (value, 1.0), rotation=90, fontsize=7, va="bottom")
+        ax.axhline(1.0, color="k", lw=0.5)
+        ax.set_xlabel(_LABELS.get(self.parameter, self.parameter))
+        ax.set_ylabel(r"largest Floquet multiplier $|\mu|$")
+        ctx = ", ".join(f"{k} = {v:g}" for k, v in self.context.items() if k != self.parameter)
+        ax.set_title(f"{self.problem} branch in {self.parameter} ({ctx})", fontsize=9)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=130)
+        return fig
+
+
+_LABELS = {"Gamma": r"$\Gamma = A\omega^2/g$", "e": "restitution $e$",
+           "spacing": "node spacing (viscous lengths)"}
+
+
+def load_branch(path):
+    """Read a :class:`Branch` written by :meth:`Branch.save`.
+
+    Raises
+    ------
+    ValueError
+        If the file is not a branch file of a known format version.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from tps_solver import FlatLayer
+    >>> br = continue_branch(FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 2.7))
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     back = load_branch(br.save(os.path.join(d, "branch")))
+    ...     print(np.array_equal(back.states, br.states), back.special_points == br.special_points, back.context)
+    True True {'Gamma': 2.5, 'e': 0.45, 'M': 2.0}
+    """
+    import zipfile
+
+    path = str(path)
+    if not path.endswith(".npz") and not _exists(path):
+        path += ".npz"
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            data = {k: d[k] for k in d.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise ValueError(f"path {path!r} is not a readable .npz file: {exc}") from None
+    if str(data.get("format", "")) != _FORMAT[0]:
+        raise ValueError(f"path {path!r} is not a tps_solver branch file")
+    version = int(data["format_version"])
+    if version != _FORMAT[1]:
+        raise ValueError(f"branch file {path!r} has format version {version}; this version reads {_FORMAT[1]}")
+    context = dict(zip([str(k) for k in data["context_keys"]], [float(v) for v in data["context_values"]]))
+    return Branch(
+        parameter=str(data["parameter"]), parameter_values=data["parameter_values"], states=data["states"],
+        stable=data["stable"].astype(bool), multipliers=data["multipliers"],
+        special_points=[(str(k), float(v)) for k, v in zip(data["special_kinds"], data["special_values"])],
+        special_details=[], status=int(data["status"]), message=str(data["message"]),
+        success=int(data["status"]) in (0, 1), problem=str(data["problem"]), context=context, time=0.0)
+
+
+def _exists(path):
+    import os
+
+    return os.path.exists(path)
+
+
+class _Refused(Exception):
+    """The problem cannot evaluate this point (the orbit does not exist there)."""
+
+
+# ------------------------------------------------------------------ problems
+class _FlatProblem:
+    """Periodicity (19) of the single-bounce flat layer in its launch phase t0."""
+
+    name = "flat"
+    parameters = ("Gamma", "e")
+
+    def __init__(self, flat, parameter):
+        self.M = flat.M
+        self.T = flat.period
+        self.fixed = {"Gamma": flat.Gamma, "e": flat.e, "M": flat.M}
+        self.parameter = parameter
+        self.x0 = np.array([flat.t0])
+        self.p0 = self.fixed[parameter]
+
+    def _Ge(self, p):
+        G = p if self.parameter == "Gamma" else self.fixed["Gamma"]
+        e = p if self.parameter == "e" else self.fixed["e"]
+        return G, e
+
+    def residual(self, x, p):
+        G, e = self._Ge(p)
+        return np.array([2.0 * G / self.T * math.cos(x[0]) - (1.0 - e) / (1.0 + e)])
+
+    def jacobian(self, x, p):
+        G, e = self._Ge(p)
+        Jx = np.array([[-2.0 * G / self.T * math.sin(x[0])]])
+        if self.parameter == "Gamma":
+            Jp = np.array([2.0 / self.T * math.cos(x[0])])
+        else:
+            Jp = np.array([2.0 / (1.0 + e) ** 2])
+        return Jx, Jp
+
+    def monodromy(self, x, p):
+        from tps_solver.model.flat import FlatLayer
+
+        G, e = self._Ge(p)
+        if not 0.0 <= e < 1.0 or G <= 0.0:
+            raise _Refused(f"parameter out of range: Gamma = {G:.6g}, e = {e:.6g}")
+        try:
+            fl = FlatLayer(G, self.M, t0=float(x[0]))
+        except ValueError as exc:
+            raise _Refused(str(exc)) from None
+        return fl.impact_map_jacobian()
+
+
+class _CycleProblem:
+    """Exact single-contact lattice cycles (:mod:`tps_solver.solvers.tps.cycle`) in their contact times."""
+
+    name = "lattice_cycle"
+    parameters = ("spacing", "Gamma", "e")
+
+    def __init__(self, cycle, parameter, multipliers):
+        self.lattice = cycle.lattice
+        self.h0 = float(self.lattice.spacing)
+        self.M = cycle.M
+        self.T = cycle.period
+        self.fixed = {"Gamma": cycle.Gamma, "e": cycle.e, "M": cycle.M, "spacing": self.h0}
+        self.parameter = parameter
+        self.x0 = np.asarray(cycle.tc, dtype=float).copy()
+        self.p0 = self.fixed[parameter]
+        self.with_multipliers = multipliers
+        self._cache = {}
+
+    def _setup(self, p):
+        from tps_solver.model.flat import FlatLayer
+        from tps_solver.operators.lattice import Lattice
+        from tps_solver.solvers.tps.cycle import CycleProblem
+
+        key = float(p)
+        if key in self._cache:
+            return self._cache[key]
+        G = p if self.parameter == "Gamma" else self.fixed["Gamma"]
+        e = p if self.parameter == "e" else self.fixed["e"]
+        h = p if self.parameter == "spacing" else self.h0
+        if h <= 0.0 or G <= 0.0 or not 0.0 <= e < 1.0:
+            raise _Refused(f"parameter out of range: spacing = {h:.6g}, Gamma = {G:.6g}, e = {e:.6g}")
+        lat = self.lattice
+        scaled = Lattice(np.asarray(lat.nodes) * (h / self.h0), lat.geometry, lat.boundary, grid=lat.grid)
+        try:
+            flat = FlatLayer(G, self.M, e=e)
+        except ValueError as exc:
+            raise _Refused(str(exc)) from None
+        prob = CycleProblem(scaled, flat, 1.0)
+        if len(self._cache) > 8:
+            self._cache.clear()
+        self._cache[key] = (prob, scaled, flat)
+        return prob, scaled, flat
+
+    def residual(self, x, p):
+        prob, _, _ = self._setup(p)
+        return prob.residual(x)[0]
+
+    def jacobian(self, x, p):
+        prob, _, _ = self._setup(p)
+        F, H, _ = prob.residual(x)
+        op, _ = prob.jacobian_operator(x, H, None)
+        Jx = op.matmat(np.eye(x.size))
+        dp = 1e-6 * max(1.0, abs(p))
+        Jp = (self.residual(x, p + dp) - self.residual(x, p - dp)) / (2.0 * dp)
+        return Jx, Jp
+
+    def monodromy(self, x, p):
+        if not self.with_multipliers:
+            return None
+        from tps_solver.solvers.shooting.periodic import find_periodic_orbit
+        from tps_solver.solvers.tps.cycle import solve_lattice_cycle
+
+        _, lat, flat = self._setup(p)
+        cyc = solve_lattice_cycle(lat, Gamma=flat.Gamma, M=flat.M, e=flat.e, t0=None,
+                                  tc_initial=np.mod(x, self.T), continuation=False)
+        if not cyc.converged:
+            raise _Refused(f"the lattice cycle did not converge at {self.parameter} = {p:.6g}: {cyc.message}")
+        orb = find_periodic_orbit(lat, Gamma=flat.Gamma, M=flat.M, e=flat.e, guess=cyc)
+        mu = np.asarray(orb.multipliers, dtype=complex)
+        if mu.size == 0:
+            raise _Refused(f"multipliers undefined at {self.parameter} = {p:.6g}: {orb.message}")
+        return mu
+
+
+class _OrbitProblem:
+    """Periodic orbits of the FDA by shooting, any contact pattern: F(x, p) = P(x; p) - x.
+
+    ``x`` is the state ``(w, zeta)`` of all nodes at the section ``t_start`` of the start orbit
+    (which must have no node stuck there).  For the soft contact ``dP/dx`` is the exact
+    linearised period map (:class:`~tps_solver.solvers.shooting.soft_monodromy.SoftMonodromy`, one run; a central
+    difference only at a grazing switch); for point impacts it is a dense central difference of
+    the period map (4 n_nodes periods), so this is meant for small lattices.  ``dF/dp`` is a
+    central difference (two periods).  With point impacts the map is only piecewise smooth where
+    contacts coincide (docs/design.md, hazard 7), and the multipliers are those of the central
+    difference.
+    """
+
+    name = "shooting"
+    parameters = ("Gamma", "e", "cutoff")
+
+    def __init__(self, orbit, parameter, multipliers, max_unknowns=64):
+        stuck = np.asarray(orbit.get("stuck0", np.zeros(orbit.lattice.n_nodes, bool)), dtype=bool)
+        if np.any(stuck):
+            raise ValueError("start must have no node stuck at its section t_start for continuation "
+                             f"(got {int(stuck.sum())}); shoot again with another t_start")
+        if parameter == "cutoff" and orbit.cutoff is None:
+            raise ValueError("parameter 'cutoff' needs a soft-contact start orbit (cutoff is None)")
+        self.lattice, self.method, self.t_s, self.T = orbit.lattice, orbit.method, orbit.t_start, orbit.period
+        n = self.lattice.n_nodes
+        if 2 * n > max_unknowns:
+            raise ValueError(f"start has {2 * n} unknowns; continuation of shooting orbits uses a dense "
+                             f"Jacobian and takes at most {max_unknowns}")
+        self.fixed = {"Gamma": orbit.Gamma, "e": orbit.e, "M": orbit.M}
+        if orbit.cutoff is not None:
+            self.fixed["cutoff"] = orbit.cutoff
+        self.parameter = parameter
+        self.x0 = np.concatenate([orbit.w0, orbit.zeta0])
+        self.p0 = self.fixed[parameter]
+        self.with_multipliers = multipliers
+        self._last = None
+        self._last_run = None
+
+    def _period_map(self, x, p):
+        run = self._run(x, p)
+        return np.concatenate([run.w, run.zeta])
+
+    def _run(self, x, p):
+        """The period-map run from ``x`` at parameter ``p``; the last one is kept, since the
+        corrector asks for the residual and then the (soft: run-based) Jacobian at one point."""
+        key = (x.tobytes(), float(p))
+        if self._last_run is not None and self._last_run[0] == key:
+            return self._last_run[1]
+        run = self._new_run(x, p)
+        self._last_run = (key, run)
+        return run
+
+    def _new_run(self, x, p):
+        from tps_solver.solvers.fda import simulate
+
+        kw = dict(self.fixed)
+        kw[self.parameter] = p
+        if kw["Gamma"] <= 0.0 or not 0.0 <= kw["e"] < 1.0 or kw.get("cutoff", 1.0) <= 0.0:
+            raise _Refused(f"parameter out of range: {self.parameter} = {p:.6g}")
+        n = self.lattice.n_nodes
+        w, z = x[:n], x[n:]
+        extra = {} if "cutoff" not in kw else {"cutoff": kw["cutoff"]}
+        if self.method != "soft" and np.any(z < 0.0):
+            raise _Refused(f"a height is negative at {self.parameter} = {p:.6g}")
+        run = simulate(self.lattice, kw["Gamma"], kw["e"], w, z, t_start=self.t_s, t_end=self.t_s + self.T,
+                       method=self.method, **extra)
+        if not run.success or np.any(run.stuck):
+            raise _Refused(f"the period map at {self.parameter} = {p:.6g} failed or ended with stuck "
+                           f"nodes: {run.message}")
+        return run
+
+    def residual(self, x, p):
+        return self._period_map(x, p) - x
+
+    def _jacobians(self, x, p):
+        key = (x.tobytes(), float(p))
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        P = None
+        if self.method == "soft":
+            # the exact linearised period map (tps_solver.solvers.shooting.soft_monodromy): one run, no differences
+            n = self.lattice.n_nodes
+            try:
+                P = SoftMonodromy.from_run(self._run(x, p), x[:n], x[n:], self.t_s).matrix()
+            except ValueError as exc:   # a grazing switch: the map is not differentiable there
+                if "grazing" not in str(exc):
+                    raise
+                P = None
+        if P is None:
+            h = 1e-6 * max(1.0, float(np.max(np.abs(x))))
+            cols = []
+            for k in range(x.size):
+                d = np.zeros_like(x)
+                d[k] = h
+                cols.append((self._period_map(x + d, p) - self._period_map(x - d, p)) / (2.0 * h))
+            P = np.array(cols).T
+        hp = 1e-6 * max(1.0, abs(p))
+        Jp = (self.residual(x, p + hp) - self.residual(x, p - hp)) / (2.0 * hp)
+        self._last = (key, (P, Jp))
+        return P, Jp
+
+    def jacobian(self, x, p):
+        P, Jp = self._jacobians(x, p)
+        return P - np.eye(x.size), Jp
+
+    def monodromy(self, x, p):
+        if not self.with_multipliers:
+            return None
+        return self._jacobians(x, p)[0]
+
+
+def _make_problem(start, parameter, multipliers):
+    from tps_solver.model.flat import FlatLayer
+    from tps_solver.solvers.shooting.periodic import ShootingOrbit
+    from tps_solver.solvers.tps.cycle import LatticeCycle
+
+    if isinstance(start, ShootingOrbit):
+        if not start.converged:
+            raise ValueError("start must be a converged ShootingOrbit (got converged=False)")
+        parameter = check_choice(parameter, "parameter", _OrbitProblem.parameters)
+        return _OrbitProblem(start, parameter, multipliers)
+    if isinstance(start, FlatLayer):
+        if getattr(start, "pattern", "bounce") not in ("bounce", None):
+            raise ValueError(f"start must be a single-bounce FlatLayer for continuation, got pattern "
+                             f"{start.pattern!r}")
+        problem = _FlatProblem
+    elif isinstance(start, LatticeCycle):
+        if not start.converged:
+            raise ValueError("start must be a converged LatticeCycle (got converged=False)")
+        problem = _CycleProblem
+    else:
+        raise ValueError(f"start must be a FlatLayer, a LatticeCycle or a ShootingOrbit, got "
+                         f"{type(start).__name__}")
+    parameter = check_choice(parameter, "parameter", problem.parameters)
+    if problem is _FlatProblem:
+        return problem(start, parameter)
+    return problem(start, parameter, multipliers)
+
+
+# -------------------------------------------------------------------- engine
+def _tangent(Jx, Jp, previous):
+    """Unit null vector of [Jx Jp], oriented along ``previous`` (or with dp > 0 if None)."""
+    A = np.hstack([Jx, Jp[:, None]])
+    _, _, vt = np.linalg.svd(A)
+    t = vt[-1]
+    ref = previous if previous is not None else np.eye(t.size)[-1]
+    if np.dot(t, ref) < 0.0:
+        t = -t
+    return t / np.linalg.norm(t)
+
+
+def _correct(problem, y_pred, tangent, tol, max_iter):
+    """Newton on [F(y); tangent.(y - y_pred)] = 0; returns (y, converged, iterations)."""
+    y = y_pred.copy()
+    n = y.size - 1
+    for it in range(1, max_iter + 1):
+        F = problem.residual(y[:n], y[n])
+        if not np.all(np.isfinite(F)):
+            return y, False, it
+        g = float(np.dot(tangent, y - y_pred))
+        if np.max(np.abs(F)) <= tol and abs(g) <= tol:
+            return y, True, it - 1
+        Jx, Jp = problem.jacobian(y[:n], y[n])
+        A = np.vstack([np.hstack([Jx, Jp[:, None]]), tangent[None, :]])
+        try:
+            dy = np.linalg.solve(A, -np.concatenate([F, [g]]))
+        except np.linalg.LinAlgError:
+            return y, False, it
+        y = y + dy
+        if np.max(np.abs(dy)) <= 1e-3 * tol:
+            F = problem.residual(y[:n], y[n])
+            return y, bool(np.max(np.abs(F)) <= tol), it
+    F = problem.residual(y[:n], y[n])
+    return y, bool(np.all(np.isfinite(F)) and np.max(np.abs(F)) <= tol), max_iter
+
+
+def _multipliers(problem, y):
+    n = y.size - 1
+    J = problem.monodromy(y[:n], y[n])
+    if J is None:
+        return np.array([], dtype=complex), np.nan
+    J = np.asarray(J)
+    if J.ndim == 2:
+        mu = np.linalg.eigvals(J)
+        pd = float(np.real(np.linalg.det(np.eye(J.shape[0]) + J)))
+    else:
+        mu = J
+        # det(I + M) from the multipliers themselves (real for a real map)
+        pd = float(np.real(np.prod(1.0 + mu)))
+    order = np.argsort(-np.abs(mu), kind="stable")
+    return mu[order], pd
+
+
+def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_step=None, min_step=None,
+                    max_points=400, tol=1e-11, tol_special=1e-10, direction=1, bothsides=False,
+                    multipliers=True, max_corrector=10, callback=None):
+    r"""Follow the branch of periodic orbits through ``start`` in one parameter (module docstring).
+
+    Parameters
+    ----------
+    start : FlatLayer, LatticeCycle or ShootingOrbit
+        A point on the branch.
+    parameter : str
+        ``"Gamma"`` or ``"e"`` (flat layer); ``"spacing"``, ``"Gamma"`` or ``"e"`` (lattice cycle);
+        ``"Gamma"``, ``"e"`` or ``"cutoff"`` (shooting orbit).
+    bounds : (float, float)
+        The parameter interval; the branch stops where it leaves it.  It must contain
+        the start's parameter value.
+    step : float, optional
+        Initial arclength step; default 1 % of the interval.
+    max_step, min_step : float, optional
+        Largest step (default 5 % of the interval) and the step below which a failing
+        corrector ends the branch (default 1e-6 of the interval).
+    max_points : int
+        Bound on the number of points.
+    tol : float
+        Corrector tolerance on max|F|.
+    tol_special : float
+        Relative accuracy in arclength of the located special points.
+    direction : {1, -1}
+        Initial direction of the parameter.
+    bothsides : bool
+        Follow the branch in both directions from ``start`` and join the two halves
+        (ordered along the branch, the start in between).
+    multipliers : bool
+        Compute Floquet multipliers (and period doublings) at every point.  For a
+        lattice cycle each costs a few FDA periods per unknown.
+    max_corrector : int
+        Newton iterations per corrector.
+    callback : callable, optional
+        ``callback(k, parameter_value, stable)`` after each accepted point.
+
+    Returns
+    -------
+    Branch
+
+    Examples
+    --------
+    >>> from tps_solver import FlatLayer
+    >>> br = continue_branch(FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 3.2), bothsides=True)
+    >>> [kind for kind, _ in br.special_points]
+    ['fold', 'period_doubling']
+    >>> lo, hi = FlatLayer.stability_window(0.45, 2)
+    >>> bool(abs(br.special_points[0][1] - lo) < 1e-8 and abs(br.special_points[1][1] - hi) < 1e-8)
+    True
+    """
+    if bothsides:
+        kw = dict(step=step, max_step=max_step, min_step=min_step, max_points=max_points, tol=tol,
+                  tol_special=tol_special, multipliers=multipliers, max_corrector=max_corrector,
+                  callback=callback)
+        down = continue_branch(start, parameter, bounds, direction=-1, **kw)
+        up = continue_branch(start, parameter, bounds, direction=1, **kw)
+        return _join(down, up)
+    problem = _make_problem(start, parameter, multipliers)
+    if bounds is None:
+        raise ValueError("bounds must be given: a (low, high) interval of the parameter")
+    try:
+        lo, hi = (check_real(b, "bounds") for b in bounds)
+    except TypeError:
+        raise ValueError(f"bounds must be a pair (low, high) of finite numbers, got {bounds!r}") from None
+    if not lo < hi:
+        raise ValueError(f"bounds must satisfy low < high, got {bounds!r}")
+    p0 = problem.p0
+    if not lo <= p0 <= hi:
+        raise ValueError(f"bounds {bounds!r} must contain the start's {parameter} = {p0:.12g}")
+    width = hi - lo
+    step = 0.01 * width if step is None else check_positive(step, "step")
+    max_step = 0.05 * width if max_step is None else check_positive(max_step, "max_step")
+    min_step = 1e-6 * width if min_step is None else check_positive(min_step, "min_step")
+    if min_step > step or step > max_step:
+        raise ValueError(f"steps must satisfy min_step <= step <= max_step, got {min_step}, {step}, {max_step}")
+    max_points = check_int(max_points, "max_points", minimum=2)
+    tol = check_positive(tol, "tol")
+    tol_special = check_positive(tol_special, "tol_special")
+    if direction not in (1, -1):
+        raise ValueError(f"direction must be +1 or -1, got {direction!r}")
+    if callback is not None and not callable(callback):
+        raise ValueError("callback must be callable or None")
+    clock = time.perf_counter()
+
+    y = np.concatenate([problem.x0, [p0]])
+    y, ok, _ = _correct(problem, y, np.eye(y.size)[-1], tol, max_corrector)
+    if not ok:
+        raise ValueError(f"start is not a solution of the continued problem to tol = {tol:g}")
+    Jx, Jp = problem.jacobian(y[:-1], y[-1])
+    tau = _tangent(Jx, Jp, direction * np.eye(y.size)[-1])
+    points, tangents, mus, pds = [y], [tau], [], []
+    try:
+        mu, pd = _multipliers(problem, y)
+    except _Refused as exc:
+        raise ValueError(f"start: {exc}") from None
+    mus.append(mu)
+    pds.append(pd)
+    specials, details = [], []
+    status, message = 1, f"point limit ({max_points}) reached"
+    h = step
+    try:
+        while len(points) < max_points:
+            y_prev, tau_prev = points[-1], tangents[-1]
+            y_new, ok, nit = _correct(problem, y_prev + h * tau_prev, tau_prev, tol, max_corrector)
+            refused = None
+            if ok:
+                try:
+                    Jx, Jp = problem.jacobian(y_new[:-1], y_new[-1])
+                    tau_new = _tangent(Jx, Jp, tau_prev)
+                    mu, pd = _multipliers(problem, y_new)
+                except _Refused as exc:
+                    ok, refused = False, str(exc)
+            if not ok:
+                h *= 0.5
+                if h < min_step:
+                    if refused is not None:
+                        status, message = 3, (f"the orbit stops existing near {parameter} = {y_prev[-1]:.10g}: "
+                                              f"{refused}")
+                    else:
+                        status, message = 2, (f"the corrector failed for every step down to {min_step:.2g} "
+                                              f"at {parameter} = {y_prev[-1]:.10g}; try a smaller tol or "
+                                              "max_step")
+                    break
+                continue
+            # special points between y_prev and y_new
+            for kind, f_prev, f_new in (("fold", tau_prev[-1], tau_new[-1]),
+                                        ("period_doubling", pds[-1], pd)):
+                if np.isfinite(f_prev) and np.isfinite(f_new) and f_prev * f_new < 0.0:
+                    sp = _locate(problem, kind, y_prev, tau_prev, h, f_prev, tol, tol_special, max_corrector)
+                    if sp is not None:
+                        specials.append((kind, float(sp["value"])))
+                        sp["index"] = len(points)
+                        details.append(sp)
+            points.append(y_new)
+            tangents.append(tau_new)
+            mus.append(mu)
+            pds.append(pd)
+            if callback is not None:
+                callback(len(points) - 1, float(y_new[-1]), bool(mu.size and np.max(np.abs(mu)) < 1.0))
+            if not lo <= y_new[-1] <= hi:
+                status, message = 0, f"left the interval [{lo:g}, {hi:g}] at {parameter} = {y_new[-1]:.10g}"
+                break
+            h = min(max_step, h * (1.5 if nit <= 3 else 1.0 if nit <= 6 else 0.5))
+    except KeyboardInterrupt:
+        status, message = 5, "interrupted (KeyboardInterrupt); the points so far are returned"
+    P = np.array(points)
+    m = max((mu.size for mu in mus), default=0)
+    mult = np.full((len(mus), m), np.nan, dtype=complex)
+    for i, mu in enumerate(mus):
+        mult[i, :mu.size] = mu
+    with np.errstate(invalid="ignore"):
+        rho = np.nanmax(np.abs(mult), axis=1) if m else np.full(len(mus), np.nan)
+    stable = np.where(np.isfinite(rho), rho < 1.0, False)
+    names = ", ".join(f"{k} at {v:.10g}" for k, v in specials) or "none"
+    return Branch(parameter=parameter, parameter_values=P[:, -1], states=P[:, :-1], stable=stable,
+                  multipliers=mult, special_points=specials, special_details=details, status=status,
+                  message=f"{message}; {len(points)} points; special points: {names}",
+                  success=status in (0, 1), problem=problem.name,
+                  context={k: float(v) for k, v in problem.fixed.items()}, time=time.perf_counter() - clock)
+
+
+def _join(down, up):
+    """One branch from the two halves of a two-sided continuation (``down`` reversed, then ``up``)."""
+    m = max(down.multipliers.shape[1], up.multipliers.shape[1])
+
+    def pad(a):
+        out = np.full((a.shape[0], m), np.nan, dtype=complex)
+        out[:, :a.shape[1]] = a
+        return out
+
+    k = down.parameter_values.size
+    details = ([dict(d, index=k - d["index"]) for d in reversed(down.special_details)]
+               + [dict(d, index=d["index"] + k - 1) for d in up.special_details])
+    status = down.status if down.status not in (0, 1) else up.status
+    return Branch(
+        parameter=up.parameter,
+        parameter_values=np.concatenate([down.parameter_values[::-1], up.parameter_values[1:]]),
+        states=np.concatenate([down.states[::-1], up.states[1:]]),
+        stable=np.concatenate([down.stable[::-1], up.stable[1:]]),
+        multipliers=np.concatenate([pad(down.multipliers)[::-1], pad(up.multipliers)[1:]]),
+        special_points=list(reversed(down.special_points)) + list(up.special_points),
+        special_details=details, status=status,
+        message=f"decreasing side: {down.message}. Increasing side: {up.message}",
+        success=down.success and up.success, problem=up.problem, context=up.context,
+        time=down.time + up.time)
+
+
+def _locate(problem, kind, y0, tau0, h, f0, tol, tol_special, max_corrector):
+    """Bisect in arclength from ``y0`` for the zero of the test function of ``kind``."""
+    a, b = 0.0, h
+    fa = f0
+    best = None
+    for _ in range(200):
+        if b - a <= tol_special * max(1.0, h):
+            break
+        s = 0.5 * (a + b)
+        y, ok, _ = _correct(problem, y0 + s * tau0, tau0, tol, max_corrector)
+        if not ok:
+            return None
+        try:
+            if kind == "fold":
+                Jx, Jp = problem.jacobian(y[:-1], y[-1])
+                f = _tangent(Jx, Jp, tau0)[-1]
+                mu = None
+            else:
+                mu, f = _multipliers(problem, y)
+        except _Refused:
+            return None
+        best = (y, mu)
+        if f * fa > 0.0:
+            a, fa = s, f
+        else:
+            b = s
+    if best is None:
+        return None
+    y, mu = best
+    if mu is None:
+        try:
+            mu, _ = _multipliers(problem, y)
+        except _Refused:
+            mu = np.array([], dtype=complex)
+    return dict(kind=kind, value=float(y[-1]), state=y[:-1].copy(), multipliers=mu)

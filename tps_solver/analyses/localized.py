@@ -1,0 +1,369 @@
+r"""Kinks and oscillons on FDA lattices, any contact pattern: :func:`lattice_kink`, :func:`lattice_oscillon`.
+
+The user's question -- *is there a periodic kink (or oscillon) at these parameters, on this
+lattice, and is it stable?* -- in one call, for every contact model of the package:
+point impacts with any restitution :math:`0 \le e < 1` (including the completely
+inelastic layer, whose nodes stick to the plate every period) and the soft contact
+of cut-off length :math:`\ell`.
+
+Recipe (the one of Sec. 4.3.1 of the paper, completed by a Newton solve):
+
+1. **Far field.**  The flat layer of the chosen model: :class:`~tps_solver.FlatLayer`
+   with the requested ``pattern`` (single bounce, stick, touch-and-go) for point
+   impacts, :class:`~tps_solver.SoftFlatOrbit` for the soft contact.
+2. **Start.**  A kink: the flat orbit for :math:`x < 0` and the same orbit half a
+   period later for :math:`x > 0`, joined linearly over ``width``
+   (:func:`tps_solver.solvers.fda.kink_state`).  An oscillon: the shifted orbit inside the
+   core :math:`r < r_c` of an axisymmetric lattice (:func:`tps_solver.solvers.fda.oscillon_state`).
+   The start time is a quarter period after the lift-off when the far field sticks
+   (the start of the e = 0 studies), otherwise the one, on a grid of the period, where
+   the lower of the two far-field heights is largest (both halves in flight).
+3. **Settle.**  ``periods`` periods of :func:`~tps_solver.simulate`, which removes the
+   fast transients of the start.
+4. **Solve.**  :func:`~tps_solver.find_periodic_orbit` (Newton--Krylov shooting) from
+   the settled state: the periodic orbit with whatever contact pattern the
+   dynamics chose, its residual and its Floquet multipliers.
+
+The result is the :class:`~tps_solver.solvers.shooting.periodic.ShootingOrbit` of step 4 (its
+``residual_history[0]`` is the periodicity defect after step 3).  If the settling
+run fails (an event bound, chatter), the start state itself goes to Newton and the
+message says so.
+
+:func:`front_width` measures the 10--90 % width of a kink's front, and
+:func:`interface_position` where a profile crosses a level (the radius of an
+oscillon's core).
+"""
+import numpy as np
+
+from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive
+from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
+from tps_solver.model.flat import FlatLayer
+from tps_solver.model.soft_flat import SoftFlatOrbit
+from tps_solver.operators.lattice import Lattice
+from tps_solver.solvers.shooting.periodic import find_periodic_orbit
+
+__all__ = ["lattice_kink", "lattice_oscillon", "front_width", "interface_position"]
+
+
+class _SoftFarField:
+    """``velocity(t)``/``height(t)`` of the soft flat orbit (flight times only)."""
+
+    def __init__(self, orbit):
+        self.orbit = orbit
+        self.period, self.Gamma, self.e = orbit.period, orbit.Gamma, orbit.e
+
+    def in_flight(self, t):
+        return (t - self.orbit.t_exit) % self.period <= self.orbit.flight
+
+    def velocity(self, t):
+        return self.orbit.state(t)[0]
+
+    def height(self, t):
+        return self.orbit.state(t)[1]
+
+
+def _far_field(Gamma, M, e, cutoff, pattern):
+    if cutoff is None:
+        return FlatLayer(Gamma, M, e=e, pattern=pattern)
+    if pattern != "auto":
+        raise ValueError(f"pattern applies to point impacts only (cutoff=None), got pattern={pattern!r} "
+                         f"with cutoff={cutoff!r}")
+    return _SoftFarField(SoftFlatOrbit(Gamma, M, e, cutoff))
+
+
+def _start_time(flat, n_grid=256):
+    """Default start: a quarter period after the lift-off of a sticking far field; otherwise the
+    time in one period where min(height(t), height(t + T/2)) is largest (both halves in flight)."""
+    T = flat.period
+    if getattr(flat, "pattern", None) == "stick":
+        return float(flat.t0 + 0.25 * T)
+    ts = T * np.arange(n_grid) / n_grid
+    best, t_best = -np.inf, 0.0
+    for t in ts:
+        if isinstance(flat, _SoftFarField) and not (flat.in_flight(t) and flat.in_flight(t + 0.5 * T)):
+            continue
+        h = min(float(flat.height(t)), float(flat.height(t + 0.5 * T)))
+        if h > best:
+            best, t_best = h, float(t)
+    return t_best
+
+
+def _check_common(lattice, Gamma, M, e, cutoff, periods, geometry):
+    if not isinstance(lattice, Lattice):
+        raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
+    if lattice.geometry != geometry:
+        raise ValueError(f"lattice must be {geometry} for this state, got a {lattice.geometry} lattice")
+    Gamma = check_positive(Gamma, "Gamma")
+    M = check_int(M, "M", minimum=2)
+    if M % 2:
+        raise ValueError(f"M must be even (a half-period shift is then a flat phase), got {M}")
+    if cutoff is not None:
+        cutoff = check_positive(cutoff, "cutoff")
+    periods = check_int(periods, "periods", minimum=0)
+    return Gamma, M, cutoff, periods
+
+
+def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
+                      simulate_kw, shooting_kw, callback):
+    w0, z0 = state
+    T = flat.period
+    if method is None:
+        method = "soft" if cutoff is not None else "exact"
+    sim_kw = dict(simulate_kw or {})
+    if cutoff is not None:
+        sim_kw["cutoff"] = cutoff
+    note = ""
+    guess, t_guess = (w0, z0), t_start
+    if periods > 0:
+        run = simulate(lattice, Gamma, e, w0, z0, t_start=t_start, t_end=t_start + periods * T,
+                       method=method, **sim_kw)
+        if run.success:
+            guess, t_guess = run, None
+        else:
+            note = f"settling run failed ({run.message}); Newton started from the initial state. "
+    kw = dict(shooting_kw)
+    kw.update({k: v for k, v in (simulate_kw or {}).items()})
+    orb = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, cutoff=cutoff, guess=guess, t_start=t_guess,
+                              method=method, callback=callback, **kw)
+    orb.localized = bool(orb.converged) and _localized(orb)
+    if orb.converged and not orb.localized:
+        note += ("the phase-shifted region did not survive: the converged orbit is uniform (the flat "
+                 "layer), not a localized state. ")
+    if note:
+        orb.message = note + orb.message
+    return orb
+
+
+def _localized(orb, n_samples=64, rel=1e-3):
+    """Whether the two ends of the lattice are on different phases over the period (a front survives)."""
+    if orb.w0 is None or not np.all(np.isfinite(orb.w0)):
+        return False
+    ts = orb.t_start + orb.period * np.arange(n_samples) / n_samples
+    Z = np.asarray(orb.height(ts))
+    return bool(np.max(np.abs(Z[:, 0] - Z[:, -1])) > rel * max(float(np.max(np.abs(Z))), 1e-300))
+
+
+def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto", width=2.0, periods=10,
+                 t_start=None, method=None, simulate_kw=None, callback=None, **shooting_kw):
+    r"""Periodic kink on a planar lattice by settling and shooting (see the module docstring).
+
+    Parameters
+    ----------
+    lattice : Lattice
+        Planar lattice with the front at :math:`x = 0` (e.g. ``Lattice.planar(n_nodes=41, length=40.0)``).
+    Gamma : float
+        Plate acceleration, > 0.  Default 4.1, where the completely inelastic kink exists.
+    M : int
+        Even period order, :math:`T = 2\pi M` (default 2, the f/2 kink).
+    e : float
+        Restitution in [0, 1) (point impacts) or (0, 1) (soft contact).  Default 0.
+    cutoff : float, optional
+        Soft-contact length :math:`\ell > 0`; None (default): point impacts.
+    pattern : {"auto", "bounce", "stick", "touch"}
+        The far field's flat orbit (point impacts), see :class:`~tps_solver.FlatLayer`.
+    width : float
+        Width of the linear transition of the start, >= 0.
+    periods : int
+        Settling periods of :func:`~tps_solver.simulate` before Newton, >= 0.
+    t_start : float, optional
+        Start time; default: a quarter period after the lift-off of a sticking far field,
+        otherwise where the lower of the two far-field heights is largest.
+    method : str, optional
+        Integrator (a key of :data:`~tps_solver.METHODS` accepted by shooting); default
+        ``"soft"`` with a cut-off, else ``"exact"``.
+    simulate_kw : dict, optional
+        Keywords of :func:`~tps_solver.simulate` used by both the settling run and the period map.
+    callback : callable, optional
+        ``callback(iteration, residual)`` after every Newton step.
+    **shooting_kw
+        Further keywords of :func:`~tps_solver.find_periodic_orbit` (``tol``, ``max_iter``,
+        ``n_multipliers``, ``dense_max``, ...).
+
+    Returns
+    -------
+    ShootingOrbit
+        ``converged``, ``residual``, ``multipliers``, ``contacts_per_node``, ``sticking_intervals``,
+        ``events`` ...; :func:`front_width` measures its front.  One more field, ``localized``
+        (bool): whether the two ends of the lattice are still on different phases (False when
+        the front has left the lattice and the orbit is the flat layer -- the message says so --
+        and whenever ``converged`` is False).
+
+    Raises
+    ------
+    ValueError
+        A lattice that is not planar, odd ``M``, parameters out of range, a far-field
+        pattern that does not exist at ``(Gamma, e, M)`` (the message lists those that do).
+
+    Notes
+    -----
+    On a lattice the front is pinned: there are kinks centred at different positions
+    relative to the nodes, typically alternating stable and unstable (at Gamma = 4.1,
+    e = 0, dx = 2: front widths 9.014 with :math:`|\mu_1| = 0.983` from the default start and
+    9.029 with :math:`|\mu_1| = 1.005` from ``t_start=4.3197``).  Which one Newton reaches
+    depends on the start; ``t_start`` (with ``width``) selects it, and the multipliers say
+    which kind was found.
+
+    Examples
+    --------
+    The completely inelastic kink on a coarse lattice (dx = 8): two contacts per node and
+    period (a touch-and-go and a landing to stick):
+
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=6, length=40.0)
+    >>> orb = lattice_kink(lat, Gamma=4.1, e=0.0, periods=4)
+    >>> orb.converged, orb.localized, orb.contacts_per_node.tolist()
+    (True, True, [2, 2, 2, 2, 2, 2])
+    >>> round(float(np.abs(orb.multipliers[0])), 3)          # stable: the nodes are far apart
+    0.031
+    """
+    Gamma, M, cutoff, periods = _check_common(lattice, Gamma, M, e, cutoff, periods, "planar")
+    pattern = check_choice(pattern, "pattern", ("auto", "bounce", "stick", "touch"))
+    width = check_nonnegative(width, "width")
+    flat = _far_field(Gamma, M, e, cutoff, pattern)
+    t_start = _start_time(flat) if t_start is None else float(t_start)
+    state = kink_state(lattice, flat, t_start, width=width)
+    return _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
+                             simulate_kw, shooting_kw, callback)
+
+
+def lattice_oscillon(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, core_radius=10.0, pattern="auto",
+                     width=2.0, periods=10, t_start=None, method=None, simulate_kw=None, callback=None,
+                     **shooting_kw):
+    r"""Periodic oscillon on an axisymmetric lattice by settling and shooting.
+
+    The start is the flat orbit half a period later inside ``core_radius`` and the flat
+    orbit outside (:func:`tps_solver.solvers.fda.oscillon_state`); the rest is as in
+    :func:`lattice_kink`.  Whether the core keeps its radius is a physical question: if it
+    shrinks or grows during the settling periods, Newton starts far from any periodic
+    orbit and reports ``converged=False`` -- measure the radius with
+    :func:`interface_position` on a time-stepped run instead.
+
+    Parameters
+    ----------
+    lattice : Lattice
+        Axisymmetric lattice (``Lattice.axisymmetric``).
+    Gamma, M, e, cutoff, pattern, width, periods, t_start, method, simulate_kw, callback, **shooting_kw
+        As in :func:`lattice_kink`.
+    core_radius : float
+        Radius of the phase-shifted core of the start, > 0 and inside the lattice.
+
+    Returns
+    -------
+    ShootingOrbit
+
+    Examples
+    --------
+    On a very coarse lattice (dr = 8) the lattice pins a core of radius 12, and a periodic
+    oscillon exists there.  On finer lattices (dr = 4, and dr = 1 or 0.5 in
+    ``validation/sections/inelastic_kinks.md``) an e = 0 core shrinks and vanishes. The orbit found
+    is then the flat layer, with ``localized`` False and a message saying so.
+
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.axisymmetric(n_nodes=6, r_max=40.0, grid="uniform")
+    >>> orb = lattice_oscillon(lat, Gamma=4.1, e=0.0, core_radius=12.0, periods=6, multipliers=False)
+    >>> orb.converged, orb.localized, orb.contacts_per_node.tolist()
+    (True, True, [2, 2, 2, 2, 2, 2])
+    """
+    Gamma, M, cutoff, periods = _check_common(lattice, Gamma, M, e, cutoff, periods, "axisymmetric")
+    pattern = check_choice(pattern, "pattern", ("auto", "bounce", "stick", "touch"))
+    width = check_nonnegative(width, "width")
+    core_radius = check_positive(core_radius, "core_radius")
+    r_max = float(lattice.nodes[-1])
+    if core_radius >= r_max:
+        raise ValueError(f"core_radius must lie inside the lattice, 0 < core_radius < {r_max:g}, "
+                         f"got {core_radius!r}")
+    flat = _far_field(Gamma, M, e, cutoff, pattern)
+    t_start = _start_time(flat) if t_start is None else float(t_start)
+    state = oscillon_state(lattice, flat, t_start, r_core=core_radius, width=width)
+    return _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
+                             simulate_kw, shooting_kw, callback)
+
+
+def interface_position(x, profile, level=0.5):
+    r"""Where the normalised profile :math:`\theta = (p - p_0)/(p_{-1} - p_0)` first reaches ``level``.
+
+    Linear interpolation between the two nodes that bracket the crossing.
+
+    Parameters
+    ----------
+    x : array_like of float, shape (n,)
+        Increasing node positions.
+    profile : array_like of float, shape (n,)
+        Values with different ends (a kink's height, an oscillon's height along r).
+    level : float
+        In (0, 1).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ValueError
+        Shapes that differ, equal end values, or ``level`` outside (0, 1).
+
+    Examples
+    --------
+    >>> interface_position([0.0, 1.0, 2.0, 3.0], [0.0, 0.0, 1.0, 1.0], 0.25)
+    1.25
+    """
+    x = np.asarray(x, dtype=float)
+    p = np.asarray(profile, dtype=float)
+    if x.ndim != 1 or p.shape != x.shape or x.size < 2:
+        raise ValueError(f"x and profile must be 1-D of the same length >= 2, got {x.shape} and {p.shape}")
+    level = float(level)
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must lie in (0, 1), got {level!r}")
+    if p[-1] == p[0]:
+        raise ValueError("profile must have different end values (no interface)")
+    th = (p - p[0]) / (p[-1] - p[0])
+    i = int(np.flatnonzero(th >= level)[0])
+    if i == 0:
+        return float(x[0])
+    return float(x[i - 1] + (level - th[i - 1]) * (x[i] - x[i - 1]) / (th[i] - th[i - 1]))
+
+
+def front_width(orbit, n_samples=512):
+    r"""10--90 % width of a kink's front at the two instants where a far field is highest.
+
+    With :math:`\theta = (\zeta - \zeta_L)/(\zeta_R - \zeta_L)` (oriented to increase), the
+    width is the distance between :math:`\theta = 0.1` and :math:`0.9`, measured at the sampled
+    instant where the left far field is highest and at the one where the right is.
+
+    Parameters
+    ----------
+    orbit : PeriodicOrbit
+        A kink on a planar lattice (``orbit.lattice``, ``orbit.height``, ``orbit.period``,
+        ``orbit.t_start``), e.g. from :func:`lattice_kink`.
+    n_samples : int
+        Samples per period, >= 8.
+
+    Returns
+    -------
+    (float, float)
+        Width at the left far field's highest point, width at the right's.
+
+    Examples
+    --------
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=6, length=40.0)
+    >>> orb = lattice_kink(lat, Gamma=4.1, e=0.0, periods=4, multipliers=False)
+    >>> wl, wr = front_width(orb, n_samples=64)
+    >>> round(wl, 2), bool(abs(wl - wr) < 1e-9)          # the two halves are mirror images
+    (12.76, True)
+    """
+    n_samples = check_int(n_samples, "n_samples", minimum=8)
+    ts = orbit.t_start + orbit.period * np.arange(n_samples) / n_samples
+    Z = np.asarray(orbit.height(ts))
+    x = orbit.lattice.nodes
+    out = []
+    for col in (0, -1):
+        z = Z[int(np.argmax(Z[:, col]))]
+        th = (z - z[0]) / (z[-1] - z[0])
+        if th[-1] < th[0]:
+            z = z[::-1]
+            xx = -x[::-1]
+        else:
+            xx = x
+        out.append(abs(interface_position(xx, z, 0.9) - interface_position(xx, z, 0.1)))
+    return tuple(float(v) for v in out)

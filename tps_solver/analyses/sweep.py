@@ -1,0 +1,598 @@
+r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable through a store.
+
+:func:`sweep` evaluates a pure task ``task(**p)`` for every parameter dict
+``p`` and returns the results in the order of the parameters:
+
+* **Executors.**  ``executor=None`` (default) runs a local process pool
+  (``spawn`` start method, so it is safe next to threads); ``"serial"`` runs in
+  this process; any :class:`concurrent.futures.Executor` is used as given (and
+  not shut down); a ``dask.distributed.Client`` is served through
+  ``client.get_executor()`` (``pip install tps-solver[dask]``).  Tasks and
+  results travel by pickle, so the task must be a module-level function (or
+  another picklable callable) of keyword arguments.
+* **Store.**  ``store=path`` is a directory holding one small file per finished
+  point, ``<key>.pkl`` with ``{"params": p, "result": r}``, where ``key`` is a
+  SHA-256 of a canonical encoding of ``p`` (floats by their exact hex form,
+  arrays by dtype, shape and bytes).  Files are written atomically (a
+  temporary file in the same directory, then :func:`os.replace`) by the calling
+  process as results arrive, so an interrupted sweep leaves only complete
+  points behind and a rerun computes only the missing ones.  ``sweep.json``
+  records the task's name; a store written by another task is refused.  The
+  files are pickles: load only stores you wrote.
+* **Progress.**  A tqdm bar when tqdm is installed (``pip install
+  tps-solver[progress]``), otherwise log records on the ``tps_solver.sweep``
+  logger; ``callback(done, total, params, result)`` is called in this process
+  after every computed point.
+* **Interruption.**  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the
+  callback) cancels the points not yet started and raises
+  :class:`SweepInterrupted`, a ``KeyboardInterrupt`` carrying the partial
+  results; the finished points are in the store.  An exception raised by the
+  task cancels the points not yet started, waits for the running ones, stores
+  every finished point and is re-raised with a note naming the failing point.
+* **Threads.**  With ``threads=n`` (default 1 when threadpoolctl is installed,
+  ``pip install tps-solver[threads]``) every worker *process* caps its
+  BLAS/OpenMP pools at ``n`` threads before running a task, and a serial sweep
+  runs under ``threadpoolctl.threadpool_limits(n)`` (restored afterwards).
+  On few cores multithreaded BLAS inside parallel workers only
+  oversubscribes, and one thread count everywhere keeps BLAS reductions, and
+  so the results, bit-identical whatever the executor.  Thread-based
+  executors (``ThreadPoolExecutor``, Dask with ``processes=False``) share the
+  caller's pools, which are left alone.
+"""
+import concurrent.futures as cf
+import contextlib
+import hashlib
+import itertools
+import json
+import logging
+import math
+import multiprocessing
+import numbers
+import os
+import pickle
+import tempfile
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from tps_solver.core.checks import check_int, check_real
+
+__all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted"]
+
+_LOG = logging.getLogger("tps_solver.sweep")
+_MANIFEST = "sweep.json"
+_STORE_FORMAT = 1
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Raised by :func:`sweep` on ``KeyboardInterrupt``; carries the partial results.
+
+    Attributes
+    ----------
+    results : list
+        In the order of the parameters; ``None`` where a point did not finish.
+    finished : ndarray of bool, shape (n_points,)
+        True where ``results`` holds a finished point.
+    store : pathlib.Path or None
+        The store holding every finished point (rerun :func:`sweep` to finish).
+
+    Examples
+    --------
+    >>> def area(width, height):
+    ...     if width > 1.5:
+    ...         raise KeyboardInterrupt             # as if Ctrl-C were pressed here
+    ...     return width * height
+    >>> try:
+    ...     sweep(area, {"width": [1.0, 2.0], "height": [3.0]}, executor="serial", progress=False)
+    ... except SweepInterrupted as exc:
+    ...     print(exc.results, exc.finished.tolist(), exc.store)
+    [3.0, None] [True, False] None
+    """
+
+    def __init__(self, message, results, finished, store):
+        super().__init__(message)
+        self.results = results
+        self.finished = finished
+        self.store = store
+
+
+# ------------------------------------------------------------------ parameters
+def param_range(start, stop, step, name="value"):
+    """The grid ``start, start + step, ...`` up to ``stop`` (included to 1e-9 steps), as a list.
+
+    Values are rounded to 12 digits below the leading digit of ``step``, so
+    ``2.3 + 0.1`` gives ``2.4`` (and the store key of 2.4).
+
+    Parameters
+    ----------
+    start, stop : float
+        Finite, ``stop >= start``.
+    step : float
+        Finite, > 0.
+    name : str
+        The parameter's name, used in error messages.
+
+    Returns
+    -------
+    values : list of float
+
+    Examples
+    --------
+    >>> param_range(2.3, 2.7, 0.1, "Gamma")
+    [2.3, 2.4, 2.5, 2.6, 2.7]
+    >>> param_range(2.3, 2.7, 0.0, "Gamma")
+    Traceback (most recent call last):
+    ...
+    ValueError: Gamma: step must be a finite number > 0, got 0.0
+    """
+    start = check_real(start, f"{name}: start")
+    stop = check_real(stop, f"{name}: stop")
+    if not isinstance(step, numbers.Real) or not math.isfinite(step) or step <= 0:
+        raise ValueError(f"{name}: step must be a finite number > 0, got {step!r}")
+    if stop < start:
+        raise ValueError(f"{name}: stop must be >= start = {start}, got {stop} (an empty range)")
+    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    digits = max(0, 12 - math.floor(math.log10(step)))     # drop the round-off of k * step, keep 12 digits of step
+    return [float(round(start + k * step, digits)) for k in range(n)]
+
+
+def _check_value(value, where):
+    """Reject non-finite numbers anywhere inside a parameter value."""
+    if isinstance(value, (bool, np.bool_, str)) or value is None:
+        return
+    if isinstance(value, numbers.Number):
+        if not np.isfinite(value):
+            raise ValueError(f"{where} must be finite, got {value!r}")
+        return
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind in "fc" and not np.all(np.isfinite(value)):
+            raise ValueError(f"{where} must contain only finite values (no NaN or inf)")
+        return
+    if isinstance(value, (list, tuple)):
+        for v in value:
+            _check_value(v, where)
+        return
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _check_value(v, f"{where}[{k!r}]")
+
+
+def _expand(params):
+    """Validate ``params`` (list of dicts, or dict of lists meaning their product) -> list of dicts."""
+    if isinstance(params, dict):
+        if not params:
+            raise ValueError("params must be a non-empty dict of non-empty lists, got {}")
+        keys, values = [], []
+        for key, vals in params.items():
+            if not isinstance(key, str):
+                raise ValueError(f"params keys must be str (keyword names), got {key!r}")
+            if isinstance(vals, np.ndarray):
+                vals = list(vals) if vals.ndim == 1 else None
+            elif isinstance(vals, (list, tuple, range)):
+                vals = list(vals)
+            else:
+                vals = None
+            if vals is None:
+                raise ValueError(f"params[{key!r}] must be a list (or 1-D array) of values, "
+                                 f"got {type(params[key]).__name__}")
+            if not vals:
+                raise ValueError(f"params[{key!r}] must hold at least one value (an empty range)")
+            for v in vals:
+                _check_value(v, f"params[{key!r}]")
+            keys.append(key)
+            values.append(vals)
+        return [dict(zip(keys, combo)) for combo in itertools.product(*values)]
+    if not isinstance(params, (list, tuple)):
+        raise ValueError(f"params must be a list of dicts or a dict of lists, got {type(params).__name__}")
+    if not params:
+        raise ValueError("params must hold at least one parameter dict, got an empty list")
+    out = []
+    for i, p in enumerate(params):
+        if not isinstance(p, dict):
+            raise ValueError(f"params[{i}] must be a dict of keyword arguments, got {type(p).__name__}")
+        for key, v in p.items():
+            if not isinstance(key, str):
+                raise ValueError(f"params[{i}] keys must be str (keyword names), got {key!r}")
+            _check_value(v, f"params[{i}][{key!r}]")
+        out.append(dict(p))
+    return out
+
+
+def _canonical(value, where):
+    """A JSON-able encoding of ``value`` that is stable across runs and platforms."""
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)):
+        return {"b": bool(value)}
+    if isinstance(value, numbers.Integral):
+        return {"i": int(value)}
+    if isinstance(value, numbers.Real):
+        return {"f": float(value).hex()}
+    if isinstance(value, numbers.Complex):
+        return {"c": [float(value.real).hex(), float(value.imag).hex()]}
+    if isinstance(value, str):
+        return {"s": value}
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind not in "biufc":
+            raise ValueError(f"{where} is an array of dtype {value.dtype}; only numeric arrays can be keyed")
+        arr = np.ascontiguousarray(value)
+        return {"a": [arr.dtype.str, list(arr.shape), hashlib.sha256(arr.tobytes()).hexdigest()]}
+    if isinstance(value, (list, tuple)):
+        return {"l": [_canonical(v, where) for v in value]}
+    if isinstance(value, dict):
+        return {"d": [[str(k), _canonical(v, f"{where}[{k!r}]")] for k, v in sorted(value.items(), key=str)]}
+    raise ValueError(f"{where} has type {type(value).__name__}, which cannot be keyed in a store "
+                     f"(use numbers, str, bool, None, numeric arrays, or lists/dicts of them)")
+
+
+def param_key(p):
+    """Stable hash of a parameter dict: the name of its file in a store.
+
+    Parameters
+    ----------
+    p : dict
+        Keyword arguments of one task call.
+
+    Returns
+    -------
+    key : str
+        32 hex digits; equal dicts (same keys, same values bit for bit, same
+        types) give equal keys in every run.
+
+    Examples
+    --------
+    >>> param_key({"Gamma": 2.5, "e": 0.45}) == param_key({"e": 0.45, "Gamma": 2.5})
+    True
+    >>> param_key({"Gamma": 2.5}) == param_key({"Gamma": 2.5000000000000004})
+    False
+    """
+    if not isinstance(p, dict):
+        raise ValueError(f"p must be a dict of keyword arguments, got {type(p).__name__}")
+    enc = _canonical(p, "params")
+    return hashlib.sha256(json.dumps(enc, sort_keys=True).encode()).hexdigest()[:32]
+
+
+# ------------------------------------------------------------------- the store
+def _task_name(task):
+    func = getattr(task, "func", task)          # functools.partial
+    name = f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', type(func).__name__)}"
+    if func is not task:
+        name += "(partial " + repr(sorted(getattr(task, "keywords", {}).items())) + ")"
+    return name
+
+
+def _open_store(store, task):
+    path = Path(store)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"store must be a directory (or a path to create), got the file {str(path)!r}")
+    path.mkdir(parents=True, exist_ok=True)
+    manifest = path / _MANIFEST
+    name = _task_name(task)
+    if manifest.exists():
+        info = json.loads(manifest.read_text())
+        if info.get("task") != name:
+            raise ValueError(f"store {str(path)!r} holds results of task {info.get('task')!r}, "
+                             f"not {name!r}; use another store directory")
+    else:
+        _atomic_write(path, _MANIFEST, json.dumps({"task": name, "format": _STORE_FORMAT}).encode())
+    return path
+
+
+def _atomic_write(directory, filename, data):
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{filename}.", suffix=f".{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, directory / filename)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _read_point(path, key):
+    try:
+        with open(path / f"{key}.pkl", "rb") as fh:
+            return True, pickle.load(fh)["result"]
+    except FileNotFoundError:
+        return False, None
+    except Exception as exc:     # a damaged file: recompute the point
+        _LOG.info("store file %s.pkl unreadable (%s); recomputing", key, exc)
+        return False, None
+
+
+def load_store(store):
+    """Every finished point of a store.
+
+    Parameters
+    ----------
+    store : str or os.PathLike
+        A directory written by :func:`sweep`.
+
+    Returns
+    -------
+    points : list of (dict, object)
+        ``(params, result)`` pairs, sorted by key (not in any sweep's order).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> def area(width, height):
+    ...     return width * height
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     _ = sweep(area, {"width": [2.0], "height": [3.0, 5.0]}, executor="serial", store=d, progress=False)
+    ...     print(sorted(result for _, result in load_store(d)))
+    [6.0, 10.0]
+    >>> load_store(".")
+    Traceback (most recent call last):
+    ...
+    ValueError: store must be a directory written by sweep(), got '.'
+    """
+    path = Path(store)
+    if not (path / _MANIFEST).exists():
+        raise ValueError(f"store must be a directory written by sweep(), got {str(store)!r}")
+    out = []
+    for f in sorted(path.glob("*.pkl")):
+        with open(f, "rb") as fh:
+            rec = pickle.load(fh)
+        out.append((rec["params"], rec["result"]))
+    return out
+
+
+# ------------------------------------------------------------------- execution
+def _run(task, params, threads, caller_pid):
+    """Run one point: ``task(**params)``; in a worker process, first cap its BLAS threads.
+
+    The cap is set (not restored) only in processes other than the caller's,
+    so thread-based executors never change the caller's thread pools.
+    """
+    if threads is not None and os.getpid() != caller_pid:
+        from threadpoolctl import threadpool_limits
+        threadpool_limits(limits=threads)
+    return task(**params)
+
+
+def _limits(threads):
+    """Context capping this process's BLAS threads (serial runs), or a no-op."""
+    if threads is None:
+        return contextlib.nullcontext()
+    from threadpoolctl import threadpool_limits
+    return threadpool_limits(limits=threads)
+
+
+def _resolve_threads(threads):
+    try:
+        import threadpoolctl  # noqa: F401
+        have = True
+    except ImportError:
+        have = False
+    if isinstance(threads, str) and threads == "auto":
+        return 1 if have else None
+    if threads is None:
+        return None
+    threads = check_int(threads, "threads", minimum=1)
+    if not have:
+        raise ValueError("threads needs threadpoolctl (pip install tps-solver[threads]); "
+                         "pass threads=None to leave BLAS threads alone")
+    return threads
+
+
+def _resolve_executor(executor, max_workers):
+    """-> (executor or None for serial, owned)."""
+    if isinstance(executor, str):
+        if executor != "serial":
+            raise ValueError(f"executor must be None, 'serial', a concurrent.futures.Executor or a "
+                             f"dask.distributed.Client, got {executor!r}")
+        return None, False
+    if executor is None:
+        workers = (os.cpu_count() or 1) if max_workers is None else check_int(max_workers, "max_workers")
+        return cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")), True
+    if isinstance(executor, cf.Executor):
+        return executor, False
+    if callable(getattr(executor, "get_executor", None)) and callable(getattr(executor, "submit", None)):
+        return executor.get_executor(), False           # dask.distributed.Client
+    raise ValueError(f"executor must be None, 'serial', a concurrent.futures.Executor or a "
+                     f"dask.distributed.Client, got {type(executor).__name__}")
+
+
+class _Progress:
+    def __init__(self, total, initial, enabled):
+        self.total, self.done = total, initial
+        self.bar = None
+        self._next_log = initial
+        if enabled is False:
+            self.enabled = False
+            return
+        self.enabled = True
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            tqdm = None
+        if tqdm is not None:
+            self.bar = tqdm(total=total, initial=initial, desc="sweep", unit="pt", dynamic_ncols=True)
+        else:
+            _LOG.info("sweep: %d of %d points already in the store", initial, total)
+
+    def update(self):
+        self.done += 1
+        if not self.enabled:
+            return
+        if self.bar is not None:
+            self.bar.update(1)
+        elif self.done >= self._next_log or self.done == self.total:
+            _LOG.info("sweep: %d of %d points done", self.done, self.total)
+            self._next_log = self.done + max(1, self.total // 10)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def sweep(task, params, executor=None, store=None, *, callback=None, progress=None, max_workers=None,
+          threads="auto"):
+    """Evaluate ``task(**p)`` for every parameter dict ``p``, in parallel and resumably.
+
+    Parameters
+    ----------
+    task : callable
+        A pure function of keyword arguments; picklable (a module-level
+        function) unless ``executor="serial"``.  Equal parameters must give
+        equal results: finished points are reused from ``store``.
+    params : list of dict, or dict of lists
+        The points.  A dict of lists means their Cartesian product, in
+        ``itertools.product`` order (the last key varies fastest).  Values
+        must be finite; see :func:`param_range` for stepped ranges.
+    executor : None, "serial", concurrent.futures.Executor or dask.distributed.Client
+        ``None``: a local process pool of ``max_workers`` (default
+        ``os.cpu_count()``) spawned processes, shut down at the end (a
+        script that uses it needs the ``if __name__ == "__main__":`` guard);
+        ``"serial"``: this process, in order; an executor is used as given
+        (a ``ProcessPoolExecutor``, ``client.get_executor()``, ...); a Dask
+        ``Client`` is replaced by ``client.get_executor()``.
+    store : str or os.PathLike, optional
+        Directory of finished points (module docstring); points found there
+        are not recomputed.
+    callback : callable, optional
+        ``callback(done, total, params, result)`` after every computed point,
+        in this process; ``done`` counts the points loaded from the store too.
+    progress : bool, optional
+        Show progress (tqdm if installed, else ``logging``); default True.
+    max_workers : int, optional
+        Size of the default process pool.
+    threads : "auto", int or None
+        BLAS/OpenMP threads per task via threadpoolctl; ``"auto"``: 1 if
+        threadpoolctl is installed, else unlimited; ``None``: leave alone.
+
+    Returns
+    -------
+    results : list
+        ``task(**p)`` for every ``p``, in the order of ``params``.
+
+    Raises
+    ------
+    SweepInterrupted
+        On ``KeyboardInterrupt``; ``exc.results`` holds the partial results.
+    ValueError
+        On bad input: empty or non-finite parameters, a non-callable task, an
+        executor that is not one.
+    Exception
+        Whatever the task raised, after the finished points were stored.
+
+    Examples
+    --------
+    >>> def area(width, height):
+    ...     return width * height
+    >>> sweep(area, {"width": [1.0, 2.0], "height": [3.0, 5.0]}, executor="serial", progress=False)
+    [3.0, 5.0, 6.0, 10.0]
+    >>> sweep(area, [{"width": 2.0, "height": 0.5}], executor="serial", progress=False)
+    [1.0]
+    """
+    if not callable(task):
+        raise ValueError(f"task must be a callable of keyword arguments, got {type(task).__name__}")
+    points = _expand(params)
+    keys = [param_key(p) for p in points]
+    if callback is not None and not callable(callback):
+        raise ValueError(f"callback must be callable(done, total, params, result), got {type(callback).__name__}")
+    if progress is not None and not isinstance(progress, (bool, np.bool_)):
+        raise ValueError(f"progress must be True, False or None, got {progress!r}")
+    threads = _resolve_threads(threads)
+    if max_workers is not None:
+        check_int(max_workers, "max_workers")
+    ex, owned = _resolve_executor(executor, max_workers)
+    if ex is not None and (owned or isinstance(ex, cf.ProcessPoolExecutor)):
+        try:
+            pickle.dumps(task)
+        except Exception as exc:
+            if owned:
+                ex.shutdown(wait=False)
+            raise ValueError(f"task must be picklable to run in worker processes (a module-level function, "
+                             f"not a lambda or closure), got {task!r}: {exc}") from None
+    path = _open_store(store, task) if store is not None else None
+
+    n = len(points)
+    results = [None] * n
+    finished = np.zeros(n, dtype=bool)
+    positions = {}                                  # key -> indices (duplicates computed once)
+    for i, k in enumerate(keys):
+        positions.setdefault(k, []).append(i)
+    todo = []
+    for k, idx in positions.items():
+        found, value = _read_point(path, k) if path is not None else (False, None)
+        if found:
+            for i in idx:
+                results[i] = value
+            finished[idx] = True
+        else:
+            todo.append(k)
+    bar = _Progress(n, int(finished.sum()), progress)
+
+    def record(k, value):
+        idx = positions[k]
+        if path is not None:
+            _atomic_write(path, f"{k}.pkl", pickle.dumps({"params": points[idx[0]], "result": value}))
+        for i in idx:
+            results[i] = value
+        finished[idx] = True
+        for i in idx:
+            bar.update()
+            if callback is not None:
+                callback(int(finished.sum()), n, points[i], value)
+
+    def interrupted(exc):
+        done = int(finished.sum())
+        where = f"; they are in the store {str(path)!r}, rerun sweep() to finish the rest" if path else ""
+        return SweepInterrupted(f"sweep interrupted after {done} of {n} points{where}",
+                                results, finished.copy(), path)
+
+    try:
+        if ex is None:
+            for k in todo:
+                p = points[positions[k][0]]
+                try:
+                    with _limits(threads):
+                        value = task(**p)
+                except KeyboardInterrupt as exc:
+                    raise interrupted(exc) from exc
+                except Exception as exc:
+                    exc.add_note(f"sweep: the task failed at params = {p!r}; "
+                                 f"{int(finished.sum())} of {n} finished points kept")
+                    raise
+                try:
+                    record(k, value)
+                except KeyboardInterrupt as exc:
+                    raise interrupted(exc) from exc
+            return results
+        pid = os.getpid()
+        futures = {ex.submit(_run, task, points[positions[k][0]], threads, pid): k for k in todo}
+        pending = set(futures)
+        try:
+            while pending:
+                done, pending = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
+                for fut in done:
+                    record(futures[fut], fut.result())
+        except KeyboardInterrupt as exc:
+            for fut in pending:
+                fut.cancel()
+            if owned:
+                ex.shutdown(wait=False, cancel_futures=True)
+                owned = False
+            raise interrupted(exc) from exc
+        except Exception as exc:
+            for fut in pending:
+                fut.cancel()
+            cf.wait(pending)                     # the running points finish; keep them
+            for fut in pending:
+                if fut.done() and not fut.cancelled() and fut.exception() is None:
+                    record(futures[fut], fut.result())
+            failed = [futures[f] for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
+            what = f"the point params = {points[positions[failed[0]][0]]!r} raised" if failed else "stopped"
+            exc.add_note(f"sweep: {what}; {int(finished.sum())} of {n} finished points kept")
+            raise
+        return results
+    finally:
+        bar.close()
+        if owned:
+            ex.shutdown(wait=True)

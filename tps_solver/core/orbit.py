@@ -1,0 +1,123 @@
+r"""One vocabulary for periodic orbits: :class:`PeriodicOrbit` and the status table.
+
+Every periodic result of the package -- the spectral TPS
+(:class:`~tps_solver.solvers.tps.PeriodicSolution`), the exact lattice cycle
+(:class:`~tps_solver.solvers.tps.LatticeCycle`) -- is a :class:`PeriodicOrbit`: a
+result bunch with the fields below and the evaluators :meth:`velocity` and
+:meth:`height`, which ``dir()`` shows next to the fields.
+
+Status codes
+------------
+One table, :data:`STATUS`, for every solver that returns a periodic orbit:
+
+====  ==========================================================================
+code  meaning
+====  ==========================================================================
+0     converged: the residual met the tolerance
+1     iteration limit reached
+2     stagnation: no decrease along the Newton direction, or a non-finite step
+3     the contact computation failed (no jump-like up-crossing of (46), or the
+      FDA period map's contact search stalled)
+4     the branch ended before the requested parameter (continuation stopped,
+      most likely at a fold); the fields hold the last converged point
+5     interrupted by the user (``KeyboardInterrupt``); the last iterate is kept
+6     event bound exceeded in the period map (chattering or Zeno behaviour)
+7     periodic on the free nodes, but a node stuck at the section is free after
+      one period (choose another section)
+====  ==========================================================================
+"""
+import numpy as np
+
+from tps_solver.core.bunch import Bunch
+
+__all__ = ["PeriodicOrbit", "STATUS", "converged_message"]
+
+STATUS = {
+    0: "converged",
+    1: "iteration limit reached",
+    2: "stagnation (no decrease along the Newton direction)",
+    3: "contact computation failed",
+    4: "branch ended before the requested parameter (fold)",
+    5: "interrupted",
+    6: "event bound exceeded",
+    7: "stuck set changed at the section",
+}
+
+
+def converged_message(residual, tol, how=""):
+    """The one wording of a converged solve: ``"converged[ how]: max|F| = r <= tol = t"``.
+
+    Examples
+    --------
+    >>> converged_message(3e-12, 1e-10)
+    'converged: max|F| = 3.000e-12 <= tol = 1.0e-10'
+    """
+    how = f" {how}" if how else ""
+    return f"converged{how}: max|F| = {residual:.3e} <= tol = {tol:.1e}"
+
+
+class PeriodicOrbit(Bunch):
+    r"""Base of every periodic result: fields shared by all, evaluators as methods.
+
+    Attributes
+    ----------
+    converged, success : bool
+        Whether the solver met its tolerance (the two are the same).
+    status : int
+        A code of :data:`STATUS`.
+    message : str
+        What happened, and what to try next when it did not converge.
+    nit : int
+        Newton steps (or sweeps) taken.
+    residual : float
+        Final residual (max norm).
+    residual_history : ndarray of float, shape (nit + 1,)
+    geometry : str
+        ``"planar"`` (kink) or ``"axisymmetric"`` (oscillon).
+    nodes : ndarray of float, shape (n_nodes,)
+        Positions ``x`` or ``r`` of the nodes the fields live on.
+    tc : ndarray of float, shape (n_nodes,)
+        Contact time of each node in [0, T).
+    Gamma, e, t0, period : float
+        Parameters; ``t0`` is the launch phase of the far-field flat layer.
+    M : int
+        Subharmonic order (period ``T = 2 pi M``).
+    flat : FlatLayer
+        The far-field flat layer.
+    coupling : float
+        The coupling :math:`\nu_c` the fields belong to (1 unless a
+        continuation stopped early, ``status = 4``).
+    lattice : Lattice or None
+        The FDA lattice of a lattice solution, ``None`` on the continuum.
+    time : float
+        Wall time of the solve, seconds.
+
+    Examples
+    --------
+    >>> from tps_solver import LatticeCycle, PeriodicSolution
+    >>> issubclass(PeriodicSolution, PeriodicOrbit) and issubclass(LatticeCycle, PeriodicOrbit)
+    True
+    >>> orb = PeriodicOrbit(converged=True, status=0, message=converged_message(1e-12, 1e-10))
+    >>> STATUS[orb.status], [name for name in dir(orb) if name in ("height", "status", "velocity")]
+    ('converged', ['height', 'status', 'velocity'])
+    >>> PeriodicOrbit.as_times(2.0)
+    array([2.])
+    """
+
+    def velocity(self, t):
+        """Velocity w(t) at the nodes; shape (len(t), n_nodes)."""
+        raise NotImplementedError
+
+    def height(self, t):
+        """Height zeta(t) at the nodes; shape (len(t), n_nodes)."""
+        raise NotImplementedError
+
+    def __dir__(self):
+        methods = [name for name in dir(type(self)) if not name.startswith("_")
+                   and callable(getattr(type(self), name)) and name not in dir(dict)]
+        return sorted(set(self.keys()) | set(methods))
+
+    @staticmethod
+    def as_times(t):
+        """``t`` as a 1-D float array (a scalar becomes shape (1,))."""
+        return np.atleast_1d(np.asarray(t, dtype=float))

@@ -1,0 +1,913 @@
+r"""Periodic orbits of any contact pattern by Newton--Krylov shooting: :func:`find_periodic_orbit`.
+
+The FDA (53) with impacts (54), sticking and lift-off -- or the soft contact of
+cut-off length :math:`\ell` -- defines a period map
+
+.. math::  P:\ (\underline w, \underline\zeta)(t_s) \mapsto (\underline w, \underline\zeta)(t_s + T),
+           \qquad T = 2\pi M ,
+
+evaluated by :func:`~tps_solver.simulate`.  The forcing :math:`g(t) = \sin t - 1/\Gamma`
+fixes the phase, so a periodic orbit is a root of :math:`F(x) = P(x) - x` with no
+phase condition.  Nothing is assumed about the contact pattern: several contacts
+per node and period, touch-and-go contacts and sticking intervals are whatever the
+time stepper does between :math:`t_s` and :math:`t_s + T`.
+
+Unknowns and section
+--------------------
+:math:`x = (\underline w, \underline\zeta)` of the nodes that are *free* at the
+section :math:`t_s`; nodes stuck to the plate there have :math:`w = \zeta = 0` and are
+no unknowns (their multipliers are 0).  The section is moved (``section="auto"``) to
+the time within one period of the guess that has the fewest stuck nodes and the
+largest distance to every event, so that small changes of the state do not move an
+event across it.
+
+Newton--GMRES
+-------------
+Each Newton step solves :math:`(J - I)\,\delta = -F` by GMRES (modified Gram--Schmidt
+Arnoldi, no restart) with the matrix-free product
+:math:`Jv \approx [P(x + hv) - P(x)]/h`, :math:`h\,\|v\|_\infty = ` ``fd_step``
+:math:`\cdot\max(1, \|x\|_\infty)`, followed by a backtracking line search on
+:math:`\|F\|_2`.  The soft contact (piecewise linear) uses the exact product instead: matrix
+exponentials between switches and saltation matrices at them
+(:class:`~tps_solver.solvers.shooting.soft_monodromy.SoftMonodromy`, one period map per Newton step for the
+switch sequence); its multipliers come from the same product (``multipliers_kind``
+``"all (exact)"`` / ``"leading (exact)"``), not from differences.
+A multiplier 0 (sticking erases a direction) is harmless:
+:math:`I - J` stays invertible.  A multiplier near 1 (the front position of a kink,
+a nearly neutral translation) makes :math:`I - J` ill-conditioned: the Newton step
+along that mode is the residual divided by :math:`1 - \mu`, far outside the range where
+the map is linear, and the line search shortens it (factors 0.1--0.3) until the
+iterate reaches the quadratic regime -- tens of steps for a kink whose front mode has
+:math:`\mu \approx 0.999`.  GMRES itself still converges in a few products (the rest
+of the spectrum is clustered near 0).  The result reports the neutral multiplier
+(``neutral``) and the step lengths taken.
+
+Floquet multipliers
+-------------------
+Eigenvalues of the monodromy :math:`J = \partial P/\partial x` at the converged orbit:
+all of them from a central-difference Jacobian when there are at most ``dense_max``
+unknowns, otherwise the ``n_multipliers`` leading ones as Ritz values of an Arnoldi
+factorisation of fixed dimension with the matrix-free product (no implicit restarts:
+the cost is known in advance, whereas restarts to a tolerance have no useful bound
+when the spectrum is clustered near 0 and the products carry finite-difference noise).  With point impacts
+the map is only piecewise smooth where several nodes touch the plate (nearly)
+together: the post-impact state depends on the order of the impacts
+(docs/design.md, hazard 7).  Before computing multipliers, forward and backward
+differences along random directions are compared; if they disagree the result says
+so, ``multipliers`` is empty, and the stability is measured instead by the growth of a
+small random perturbation over ``growth_periods`` periods (as
+:func:`~tps_solver.check_stability` does).
+"""
+import math
+import time
+
+import numpy as np
+
+from tps_solver.core.orbit import STATUS, PeriodicOrbit
+from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
+
+__all__ = ["find_periodic_orbit", "ShootingOrbit"]
+
+
+
+
+class ShootingOrbit(PeriodicOrbit):
+    r"""Result of :func:`find_periodic_orbit`: a periodic orbit of the FDA, any contact pattern.
+
+    A :class:`~tps_solver.core.orbit.PeriodicOrbit`; its ``velocity`` and ``height`` integrate the
+    orbit from its state at ``t_start``.
+
+    Attributes
+    ----------
+    converged, success : bool
+    status : int
+        A code of :data:`tps_solver.core.orbit.STATUS`: 0 converged; 1 iteration limit; 2 Newton
+        stagnated (line search failed); 3 the period map failed (contact search stalled / stiff
+        solver failed); 5 interrupted (KeyboardInterrupt); 6 event bound exceeded
+        (``max_events_per_period``); 7 converged on the free nodes but a node stuck at the
+        section is free after one period.
+    status_text : str
+    message : str
+        What happened and, if not converged, what to try.
+    residual : float
+        :math:`\max|P(x) - x|` at the returned state.
+    residual_history : ndarray of float, shape (nit + 1,)
+    step_lengths, gmres_residuals : ndarray of float, shape (nit,)
+        Per Newton step: the accepted line-search factor (0: none accepted) and the relative
+        residual GMRES reached.
+    gmres_products : ndarray of int, shape (nit,)
+        Jacobian--vector products (period maps) of each GMRES solve.
+    nit : int
+        Newton steps taken.
+    n_period_maps : int
+        Period maps evaluated (the cost unit: one :func:`~tps_solver.simulate` run over T).
+    w0, zeta0 : ndarray of float, shape (n_nodes,)
+        A state on the orbit at ``t_start`` (the last iterate if not converged).
+    stuck0 : ndarray of bool, shape (n_nodes,)
+        Nodes stuck to the plate at ``t_start`` (``w0 = zeta0 = 0`` there).
+    t_start : float
+        Section time.
+    period : float
+        :math:`T = 2\pi M`.
+    multipliers : ndarray of complex
+        Leading Floquet multipliers by decreasing modulus; empty where undefined (not
+        converged, not computed, or the map is not differentiable at the orbit).  They are
+        those of the free coordinates at the section; each node stuck there adds two
+        multipliers 0, which are not listed.
+    multipliers_kind : str
+        ``"all (dense)"``, ``"leading (Arnoldi)"`` or ``"none"``; the reason is in ``message``.
+        Soft contact: ``"all (exact)"`` or ``"leading (exact)"`` -- the product of matrix
+        exponentials and saltation matrices of :class:`~tps_solver.solvers.shooting.soft_monodromy.SoftMonodromy`
+        (ARPACK for the leading ones), no finite differences; Newton uses its exact product too.
+    multiplier_residuals : ndarray of float or None
+        Arnoldi only: Ritz residual estimates of the reported multipliers.
+    arnoldi_dim : int
+        Arnoldi only: Krylov dimension used (period maps spent on the multipliers).
+    differentiable : bool or None
+        Outcome of the one-sided difference test (None: not run).
+    growth_factor : float
+        Per-period growth of a small random perturbation (measured when the map is not
+        differentiable, NaN otherwise).
+    neutral : bool
+        A multiplier within ``neutral_tol`` of 1 (e.g. the front position of a kink).
+    contacts_per_node : ndarray of int, shape (n_nodes,)
+        Contacts (impacts, and landings that end in sticking) per node in one period.
+    contact_times : list of ndarray of float
+        Per node, the contact instants in ``[t_start, t_start + T)``.
+    sticking_intervals : list of (int, float, float)
+        ``(node, t_stick, t_liftoff)`` within ``[t_start, t_start + T]``; an interval
+        that contains the section is cut there.  Soft contact: the contact intervals
+        (entry, entry + contact time).
+    events : numpy.recarray
+        The events of one period from ``t_start`` (see :class:`~tps_solver.SimulationResult`).
+    events_per_period : int
+    simultaneous_contacts : bool
+        Two contacts at different nodes closer in time than ``simultaneity``.
+    lattice, Gamma, M, e, method, cutoff, time
+
+    Examples
+    --------
+    >>> import numpy as np, tps_solver as tps
+    >>> coarse = tps.Lattice.planar(n_nodes=8, length=140.0)
+    >>> cyc = tps.solve_lattice_cycle(coarse, Gamma=2.5, M=2, e=0.45, t0=None)
+    >>> orb = tps.find_periodic_orbit(coarse, Gamma=2.5, M=2, e=0.45, guess=cyc, multipliers=False)
+    >>> isinstance(orb, ShootingOrbit), orb.status, orb.multipliers_kind
+    (True, 0, 'none')
+    >>> z = orb.height(orb.t_start + orb.period * np.arange(4) / 4)     # shape (4, n_nodes)
+    >>> z.shape, bool(np.max(np.abs(orb.height(orb.t_start + orb.period) - orb.zeta0)) < 1e-10)
+    ((4, 8), True)
+    """
+
+    @property
+    def nodes(self):
+        """Node coordinates, shape (n_nodes,)."""
+        return self.lattice.nodes
+
+    @property
+    def geometry(self):
+        """Geometry of the lattice."""
+        return self.lattice.geometry
+
+    def _sample(self, t):
+        from tps_solver.solvers.fda import simulate
+
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        tau = np.mod(t - self.t_start, self.period)
+        # one sample per distinct phase (simulate wants strictly increasing output times)
+        phases, where = np.unique(tau, return_inverse=True)
+        kw = dict(self._sim_kw)
+        if self.method != "soft":
+            kw["stuck0"] = self.stuck0
+        run = simulate(self.lattice, self.Gamma, self.e, self.w0, self.zeta0, t_start=self.t_start,
+                       t_end=self.t_start + self.period, method=self.method,
+                       t_eval=self.t_start + phases, **kw)
+        where = where.reshape(-1)
+        return run.w_eval[where], run.zeta_eval[where]
+
+    def velocity(self, t):
+        """Node velocities on the orbit at times ``t`` (by time stepping from ``t_start``).
+
+        Parameters
+        ----------
+        t : array_like of float, shape (n_times,)
+
+        Returns
+        -------
+        ndarray of float, shape (n_times, n_nodes)
+        """
+        return self._sample(t)[0]
+
+    def height(self, t):
+        """Node heights on the orbit at times ``t``, shape (n_times, n_nodes)."""
+        return self._sample(t)[1]
+
+
+#: FDA methods the period map may use ("soft-radau", the Radau reference, is left out: too slow).
+METHODS = ("exact", "point", "ode", "soft")
+
+
+class _MapError(Exception):
+    def __init__(self, status, message):
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+
+class _PeriodMap:
+    """x (free-node w, zeta at t_s) -> the same after one period, with bookkeeping."""
+
+    def __init__(self, lattice, Gamma, e, T, t_s, stuck, method, kw, max_events):
+        self.lattice, self.Gamma, self.e, self.T, self.t_s = lattice, Gamma, e, T, t_s
+        self.stuck = stuck.copy()
+        self.free = ~stuck
+        self.m = int(np.count_nonzero(self.free))
+        self.method, self.kw, self.max_events = method, kw, max_events
+        self.count = 0
+
+    def state(self, x):
+        n = self.lattice.n_nodes
+        w, z = np.zeros(n), np.zeros(n)
+        w[self.free] = x[:self.m]
+        z[self.free] = x[self.m:]
+        if self.method != "soft":
+            z = np.maximum(z, 0.0)
+        return w, z
+
+    def pack(self, w, z):
+        return np.concatenate((w[self.free], z[self.free]))
+
+    def run(self, x, periods=1, t_eval=None):
+        from tps_solver.solvers.fda import simulate
+
+        w, z = self.state(x)
+        kw = dict(self.kw)
+        if self.method != "soft":
+            kw["stuck0"] = self.stuck
+            kw["max_events_per_cycle"] = self.max_events
+        self.count += periods
+        run = simulate(self.lattice, self.Gamma, self.e, w, z, t_start=self.t_s,
+                       t_end=self.t_s + periods * self.T, method=self.method, t_eval=t_eval, **kw)
+        if run.status == 2:
+            raise _MapError(6, f"event bound exceeded in the period map: {run.message}; raise "
+                               "max_events_per_period, raise stick_velocity (chatter turns into sticking "
+                               "sooner) or start closer to a periodic orbit")
+        if not run.success:
+            raise _MapError(3, f"the period map failed: {run.message}")
+        per = run.n_events / periods
+        if per > self.max_events:
+            raise _MapError(6, f"event bound exceeded: {per:.0f} events per period > max_events_per_period = "
+                               f"{self.max_events}; raise max_events_per_period or stick_velocity")
+        return run
+
+    def __call__(self, x):
+        run = self.run(x)
+        y = self.pack(run.w, run.zeta)
+        extra = 0.0
+        if self.method != "soft" and np.any(self.stuck):
+            extra = float(np.max(np.abs(np.concatenate((run.w[self.stuck], run.zeta[self.stuck])))))
+            if np.any(~run.stuck[self.stuck]):
+                extra = max(extra, 1e-300)     # a node stuck at the section is free after one period
+        return y, extra
+
+
+def _gmres(matvec, b, rtol, maxdim):
+    """GMRES for A d = b without restart (MGS Arnoldi with one reorthogonalisation).
+
+    Returns d, the relative residual reached and the number of products.
+    """
+    beta = float(np.linalg.norm(b))
+    if beta == 0.0:
+        return np.zeros_like(b), 0.0, 0
+    V = [b / beta]
+    H = np.zeros((maxdim + 1, maxdim))
+    e1 = np.zeros(maxdim + 1)
+    e1[0] = beta
+    y = np.zeros(0)
+    rel = 1.0
+    k = 0
+    for k in range(maxdim):
+        w = matvec(V[k])
+        for _ in range(2):
+            for j in range(k + 1):
+                c = float(np.dot(w, V[j]))
+                H[j, k] += c
+                w = w - c * V[j]
+        H[k + 1, k] = float(np.linalg.norm(w))
+        y, *_ = np.linalg.lstsq(H[:k + 2, :k + 1], e1[:k + 2], rcond=None)
+        rel = float(np.linalg.norm(e1[:k + 2] - H[:k + 2, :k + 1] @ y)) / beta
+        if rel <= rtol or H[k + 1, k] <= 1e-14 * beta:
+            break
+        V.append(w / H[k + 1, k])
+    d = np.column_stack(V[:y.size]) @ y
+    return d, rel, k + 1
+
+
+# ------------------------------------------------------------------ guesses
+
+def _same_lattice(a, b):
+    return (a is b) or (a.n_nodes == b.n_nodes and a.geometry == b.geometry and a.boundary == b.boundary
+                        and np.allclose(a.nodes, b.nodes, rtol=1e-12, atol=1e-12))
+
+
+def _guess_state(guess, lattice, Gamma, M, e, t_start, method):
+    """(w, zeta, stuck, t) at the guess time, and notes."""
+    from tps_solver.model.flat import FlatLayer
+    from tps_solver.solvers.fda import SimulationResult
+
+    n = lattice.n_nodes
+    T = 2.0 * math.pi * M
+    notes = []
+    if guess is None:
+        guess = FlatLayer(Gamma, M, e=e)
+    if isinstance(guess, (tuple, list)):
+        if len(guess) not in (2, 3):
+            raise ValueError(f"guess must be (w0, zeta0) or (w0, zeta0, stuck0), got a sequence of {len(guess)}")
+        w = check_array(guess[0], "guess w0", shape=(n,))
+        z = check_array(guess[1], "guess zeta0", shape=(n,))
+        stuck = (np.zeros(n, bool) if len(guess) == 2
+                 else check_array(guess[2], "guess stuck0", shape=(n,), dtype=bool))
+        if t_start is None:
+            raise ValueError("t_start must be given (a finite time) with a (w0, zeta0) guess: "
+                             "it is the time of that state")
+        return w, z, stuck, check_real(t_start, "t_start"), notes
+    if isinstance(guess, SimulationResult):
+        own = guess.get("lattice")
+        if own is not None and not _same_lattice(own, lattice):
+            raise ValueError(f"guess comes from another lattice ({own!r}), not {lattice!r}")
+        w = check_array(guess.w, "guess w", shape=(n,))
+        z = check_array(guess.zeta, "guess zeta", shape=(n,))
+        stuck = np.asarray(guess.stuck, dtype=bool) if guess.get("method") != "soft" else np.zeros(n, bool)
+        if t_start is not None:
+            notes.append("t_start ignored: a SimulationResult guess is taken at its final time")
+        return w, z, stuck.copy(), float(guess.t), notes
+    if isinstance(guess, ShootingOrbit):
+        if not _same_lattice(guess.lattice, lattice):
+            raise ValueError(f"guess comes from another lattice ({guess.lattice!r}), not {lattice!r}")
+        return guess.w0.copy(), guess.zeta0.copy(), guess.stuck0.copy(), float(guess.t_start), notes
+    if hasattr(guess, "velocity") and hasattr(guess, "height"):
+        nodes = getattr(guess, "nodes", None)
+        own = getattr(guess, "lattice", None)
+        if own is not None and not _same_lattice(own, lattice):
+            raise ValueError(f"guess comes from another lattice ({own!r}), not {lattice!r}")
+        if nodes is not None:
+            nodes = np.asarray(nodes, dtype=float)
+            if nodes.shape != (n,) or not np.allclose(nodes, lattice.nodes, rtol=1e-9, atol=1e-9):
+                raise ValueError(f"guess nodes (shape {nodes.shape}) differ from the lattice's {n} nodes: "
+                                 "a guess from another lattice")
+        if t_start is None:
+            ts = np.linspace(0.0, T, 256, endpoint=False)
+            h = np.asarray(guess.height(ts), dtype=float).reshape(ts.size, -1)
+            t_start = float(ts[int(np.argmax(h.min(axis=1)))])
+        t_start = check_real(t_start, "t_start")
+        w = np.asarray(guess.velocity(np.array([t_start])), dtype=float).reshape(-1)
+        z = np.asarray(guess.height(np.array([t_start])), dtype=float).reshape(-1)
+        if w.size == 1:                       # a flat layer: one value for every node
+            w, z = np.full(n, w[0]), np.full(n, z[0])
+        w = check_array(w, "guess velocity", shape=(n,))
+        z = check_array(z, "guess height", shape=(n,))
+        if method != "soft" and np.any(z < 0.0):
+            notes.append(f"the guess has zeta < 0 at t_start (min {z.min():.3g}); clipped to 0")
+            z = np.maximum(z, 0.0)
+        return w, z, np.zeros(n, bool), t_start, notes
+    raise ValueError("guess must be (w0, zeta0), a SimulationResult, a PeriodicSolution, a LatticeCycle, "
+                     f"a FlatLayer or a ShootingOrbit, got {type(guess).__name__}")
+
+
+def _intervals(events, stuck0, t0, t1, method, tau_c=None):
+    """Sticking (or soft contact) intervals (node, begin, end) within [t0, t1]."""
+    out = []
+    if method == "soft":
+        for t, j in zip(events.t, events.node):
+            out.append((int(j), float(t), float(min(t + tau_c, t1))))
+        return out
+    begin = {int(j): t0 for j in np.flatnonzero(stuck0)}
+    for t, j, kind in zip(events.t, events.node, events.kind):
+        j = int(j)
+        if kind == "stick":
+            begin[j] = float(t)
+        elif kind == "liftoff" and j in begin:
+            out.append((j, begin.pop(j), float(t)))
+    for j, b in begin.items():
+        out.append((j, b, t1))
+    out.sort(key=lambda r: (r[1], r[0]))
+    return out
+
+
+def _choose_section(pmap_factory, w, z, stuck, t_g, T, method, n_grid=512):
+    """Move the section within one period to the time with the fewest stuck nodes and the
+    largest distance to any event.  Returns (w, z, stuck, t_s, clearance, period maps used)."""
+    pm = pmap_factory(t_g, stuck)
+    ts = t_g + T * np.arange(1, n_grid) / n_grid
+    x = pm.pack(w, z)
+    run = pm.run(x, t_eval=ts)
+    ev = run.events
+    tau_c = run.cutoff.get("tau_c") if method == "soft" else None
+    ivs = _intervals(ev, stuck, t_g, t_g + T, method, tau_c)
+    times = np.asarray(ev.t, dtype=float)
+    if method == "soft":
+        times = np.concatenate((times, times + tau_c))
+    n_stuck = np.zeros(ts.size, int)
+    for _, b, e_ in ivs:
+        n_stuck += (ts >= b) & (ts <= e_)
+    clear = np.min(np.abs(ts[:, None] - times[None, :]), axis=1) if times.size else np.full(ts.size, T)
+    clear = np.minimum(clear, np.minimum(ts - t_g, t_g + T - ts))
+    k = int(np.lexsort((-clear, n_stuck))[0])
+    st = np.zeros(w.size, bool)
+    for j, b, e_ in ivs:
+        if b <= ts[k] <= e_:
+            st[j] = True
+    if method == "soft":
+        st[:] = False
+    wk, zk = run.w_eval[k].copy(), run.zeta_eval[k].copy()
+    wk[st] = 0.0
+    zk[st] = 0.0
+    return wk, zk, st, float(ts[k]), float(clear[k]), pm.count
+
+
+def _fit_growth(dist, saturation=1e-3):
+    """Per-period growth factor: log-linear fit over the second half of the linear window
+    (the periods before ``dist`` first exceeds ``saturation``), as in check_stability."""
+    over = np.flatnonzero(~(dist < saturation))
+    k1 = (int(over[0]) - 1) if over.size else dist.size - 1
+    if k1 < 1:
+        return float("nan")
+    k0 = max(1, k1 // 2) if k1 - max(1, k1 // 2) >= 1 else 0
+    ks = np.arange(k0, k1 + 1)
+    d = dist[ks]
+    if np.any(d <= 0):
+        return float("nan")
+    return float(math.exp(np.polyfit(ks, np.log(d), 1)[0]))
+
+
+def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None, t_start=None, *,
+                        method=None, tol=None, max_iter=30, section="auto", fd_step=None,
+                        krylov_dim=None, gmres_rtol=1e-4, multipliers=True, n_multipliers=6,
+                        dense_max=64, jacobian_step=None, differentiability_rtol=1e-3,
+                        neutral_tol=1e-2, simultaneity=1e-6, growth_periods=10,
+                        max_events_per_period=None, callback=None, **simulate_kw):
+    r"""Periodic orbit of the FDA period map by Newton--Krylov shooting (see the module docstring).
+
+    Parameters
+    ----------
+    lattice : Lattice
+    Gamma : float
+        Plate acceleration, > 0.
+    M : int
+        Period :math:`T = 2\pi M` of the orbit, >= 1.
+    e : float
+        Restitution in [0, 1) (in (0, 1) for the soft contact).
+    cutoff : float, optional
+        Soft-contact length :math:`\ell > 0`; selects ``method="soft"``.  None: point impacts (54).
+    guess : tuple, SimulationResult, PeriodicSolution, LatticeCycle, FlatLayer or ShootingOrbit, optional
+        Starting state.  ``(w0, zeta0)`` or ``(w0, zeta0, stuck0)`` (arrays of shape
+        (n_nodes,)) at time ``t_start``; a time-stepped run (its final state); anything with
+        ``velocity(t)``/``height(t)`` and the lattice's ``nodes`` (sampled at ``t_start``,
+        default the time where the smallest height is largest).  Default: the flat layer.
+    t_start : float, optional
+        Time of a ``(w0, zeta0)`` guess (required then), or the sampling time of a periodic guess.
+    method : {"exact", "point", "ode", "soft"}, optional
+        Integrator of the period map; default ``"soft"`` if ``cutoff`` is given, else ``"exact"``.
+    tol : float, optional
+        Convergence when :math:`\max|P(x) - x| \le` ``tol``; default 1e-11 (exact), 1e-9 (ode),
+        1e-10 (soft: Newton's Jacobian--vector products are the exact soft monodromy, and the
+        period map's noise is far below this).
+    max_iter : int
+        Newton steps, >= 0.
+    section : {"auto", "fixed"}
+        ``"auto"``: move the section within one period of the guess to the time with the
+        fewest stuck nodes and the largest distance to every event (costs one period);
+        ``"fixed"``: keep the guess time.
+    fd_step : float, optional
+        Relative size of the finite-difference perturbation of the Jacobian--vector product;
+        default 1e-7 (exact), 1e-6 (ode), 1e-5 (soft).
+    krylov_dim : int, optional
+        Largest Krylov space per Newton step (period maps per step); default
+        ``min(n_unknowns, 100)``.
+    gmres_rtol : float
+        Relative residual of the inner GMRES solve.
+    multipliers : bool
+        Compute the Floquet multipliers of a converged orbit.
+    n_multipliers : int
+        Number of leading multipliers by Arnoldi (more than ``dense_max`` unknowns): the Ritz
+        values of a fixed-size Arnoldi factorisation of dimension ``max(2 n_multipliers + 1, 20)``
+        of the matrix-free monodromy, with their residual estimates.
+    dense_max : int
+        Up to this many unknowns all multipliers are computed from a central-difference Jacobian.
+    jacobian_step : float, optional
+        Relative step of the central differences and of the one-sided test; default ``fd_step``
+        (1e-4 for the soft contact, whose stiff solver leaves noise of about 1e-9 in the map).
+        It must stay below the smallest gap between contact times of different nodes (times the
+        impact speed), or the differences straddle a change of impact order.
+    differentiability_rtol : float
+        Forward and backward differences along random directions must agree to this
+        (relative) for the map to count as differentiable.
+    neutral_tol : float
+        A multiplier with :math:`|\mu - 1|` below this is reported as neutral.
+    simultaneity : float
+        Contacts of different nodes closer in time than this count as simultaneous.
+    growth_periods : int
+        Periods of the perturbation-growth measurement (used when the map is not differentiable).
+    max_events_per_period : int, optional
+        Event bound of one period map; default ``100 * n_nodes``.  Exceeding it stops with status 3.
+    callback : callable, optional
+        ``callback(iteration, residual)`` after every Newton step (and once for the start).
+        Raising ``KeyboardInterrupt`` there (or pressing Ctrl-C) returns the state so far.
+    **simulate_kw
+        Further keywords of :func:`~tps_solver.simulate` (``stick_velocity``, ``time_tol``,
+        ``rtol``, ``atol``, ``ode_solver``, ...).
+
+    Returns
+    -------
+    ShootingOrbit
+
+    Raises
+    ------
+    ValueError
+        Bad input: wrong lattice, parameters out of range, a guess of the wrong shape, with
+        NaN, negative heights (point impacts) or from another lattice, ``cutoff <= 0``.
+
+    Examples
+    --------
+    >>> import tps_solver as tps
+    >>> coarse = tps.Lattice.planar(n_nodes=8, length=140.0)
+    >>> cyc = tps.solve_lattice_cycle(coarse, Gamma=2.5, M=2, e=0.45, t0=None)
+    >>> orb = find_periodic_orbit(coarse, Gamma=2.5, M=2, e=0.45, guess=cyc)
+    >>> orb.converged, orb.contacts_per_node.tolist()
+    (True, [1, 1, 1, 1, 1, 1, 1, 1])
+    >>> bool(abs(abs(orb.multipliers[0]) - 0.457) < 1e-3)
+    True
+    """
+    from tps_solver.operators.lattice import Lattice
+
+    start_clock = time.perf_counter()
+    if not isinstance(lattice, Lattice):
+        raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
+    Gamma = check_positive(Gamma, "Gamma")
+    M = check_int(M, "M", minimum=1)
+    e = check_restitution(e, "e")
+    if cutoff is not None:
+        cutoff = check_positive(cutoff, "cutoff")
+    if method is None:
+        method = "soft" if cutoff is not None else "exact"
+    method = check_choice(method, "method", METHODS)
+    if method == "soft" and cutoff is None:
+        raise ValueError("cutoff must be a finite number > 0 when method='soft', got None")
+    if method != "soft" and cutoff is not None:
+        raise ValueError(f"cutoff is only used with method='soft', got method={method!r}")
+    section = check_choice(section, "section", ("auto", "fixed"))
+    defaults = {"exact": (1e-11, 1e-7, 1e-7), "point": (1e-11, 1e-7, 1e-7), "ode": (1e-9, 1e-6, 1e-6),
+                "soft": (1e-10, 1e-5, 1e-4)}[method]
+    tol = defaults[0] if tol is None else check_positive(tol, "tol")
+    fd_step = defaults[1] if fd_step is None else check_positive(fd_step, "fd_step")
+    jacobian_step = defaults[2] if jacobian_step is None else check_positive(jacobian_step, "jacobian_step")
+    max_iter = check_int(max_iter, "max_iter", minimum=0)
+    gmres_rtol = check_positive(gmres_rtol, "gmres_rtol")
+    n_multipliers = check_int(n_multipliers, "n_multipliers", minimum=1)
+    dense_max = check_int(dense_max, "dense_max", minimum=0)
+    differentiability_rtol = check_positive(differentiability_rtol, "differentiability_rtol")
+    neutral_tol = check_positive(neutral_tol, "neutral_tol")
+    simultaneity = check_positive(simultaneity, "simultaneity")
+    growth_periods = check_int(growth_periods, "growth_periods", minimum=2)
+    n = lattice.n_nodes
+    if max_events_per_period is None:
+        max_events_per_period = 100 * n
+    max_events_per_period = check_int(max_events_per_period, "max_events_per_period", minimum=1)
+    if callback is not None and not callable(callback):
+        raise ValueError(f"callback must be callable, got {type(callback).__name__}")
+    T = 2.0 * math.pi * M
+    kw = dict(simulate_kw)
+    if method == "soft":
+        kw["cutoff"] = cutoff
+
+    w, z, stuck, t_g, notes = _guess_state(guess, lattice, Gamma, M, e, t_start, method)
+    if method != "soft" and np.any(z < 0.0):
+        raise ValueError("guess zeta0 must be >= 0 at every node with point impacts (the layer cannot "
+                         f"be below the plate), got min {z.min():.3g}")
+    if np.any(stuck & ((w != 0.0) | (z != 0.0))):
+        raise ValueError("guess stuck0 nodes must have w0 = zeta0 = 0")
+    if method == "soft":
+        stuck = np.zeros(n, bool)
+
+    def factory(t_s, st):
+        return _PeriodMap(lattice, Gamma, e, T, t_s, st, method, kw, max_events_per_period)
+
+    history = []
+    steps = []                      # (line-search step length, GMRES relative residual, products)
+    n_maps = 0
+    clearance = float("nan")
+    status, message = None, ""
+    t_s = t_g
+
+    def result(x=None, pm=None, F_res=float("nan"), nit=0):
+        out = ShootingOrbit(converged=status == 0, success=status == 0, status=status,
+                            status_text=STATUS[status], message=message, residual=float(F_res),
+                            residual_history=np.asarray(history, dtype=float), nit=nit,
+                            step_lengths=np.array([r[0] for r in steps], dtype=float),
+                            gmres_residuals=np.array([r[1] for r in steps], dtype=float),
+                            gmres_products=np.array([r[2] for r in steps], dtype=int),
+                            n_period_maps=n_maps + (pm.count if pm is not None else 0),
+                            t_start=float(t_s), period=T, lattice=lattice, Gamma=Gamma, M=M, e=e,
+                            method=method, cutoff=cutoff, section_clearance=clearance,
+                            multipliers=np.empty(0, complex), multipliers_kind="none", differentiable=None,
+                            multiplier_residuals=None, arnoldi_dim=0,
+                            growth_factor=float("nan"), neutral=False,
+                            contacts_per_node=np.zeros(n, int), contact_times=[np.empty(0)] * n,
+                            sticking_intervals=[], events=None, events_per_period=0,
+                            simultaneous_contacts=False)
+        if pm is not None and x is not None:
+            wx, zx = pm.state(x)
+            out.update(w0=wx, zeta0=zx, stuck0=pm.stuck.copy())
+        else:
+            out.update(w0=w.copy(), zeta0=z.copy(), stuck0=stuck.copy())
+        out._sim_kw = kw
+        return out
+
+    try:
+        if section == "auto":
+            # the section run samples the period on a grid; should a grid time fall on a switch to
+            # round-off and the contact search fail there, try a second grid, then keep the guess time
+            for n_grid in (512, 509, None):
+                if n_grid is None:
+                    notes.append("section='auto' failed on two sampling grids; the guess time is the section")
+                    break
+                try:
+                    w, z, stuck, t_s, clearance, used = _choose_section(factory, w, z, stuck, t_g, T, method,
+                                                                        n_grid=n_grid)
+                    n_maps += used
+                    break
+                except _MapError as exc:
+                    n_maps += 1
+                    if exc.status != 3:
+                        raise
+    except _MapError as exc:
+        status, message = exc.status, exc.message + " (while choosing the section from the guess)"
+        return _finish(result(), notes, start_clock)
+    except KeyboardInterrupt:
+        status, message = 5, "interrupted while choosing the section; the guess is returned"
+        return _finish(result(), notes, start_clock)
+
+    pm = factory(t_s, stuck)
+    m = pm.m
+    if krylov_dim is None:
+        krylov_dim = min(2 * m, 100)
+    krylov_dim = check_int(krylov_dim, "krylov_dim", minimum=1)
+    x = pm.pack(w, z)
+    nit = 0
+    res = float("nan")
+    try:
+        Px, extra = pm(x)
+        F = Px - x
+        res = max(float(np.max(np.abs(F), initial=0.0)), extra)
+        history.append(res)
+        if callback is not None:
+            callback(0, res)
+        while True:
+            if res <= tol:
+                status = 0 if extra == 0.0 else 7
+                break
+            if nit >= max_iter:
+                status = 1
+                break
+            scale = max(1.0, float(np.max(np.abs(x), initial=0.0)))
+
+            if method == "soft":        # the exact product (tps_solver.solvers.shooting.soft_monodromy), no differences
+                lin = SoftMonodromy.from_run(pm.run(x), *pm.state(x), pm.t_s)
+
+                def jv(v, lin=lin):
+                    return lin.jv(v) - v
+            else:
+                def jv(v, x=x, Px=Px, scale=scale):
+                    nv = float(np.max(np.abs(v)))
+                    if nv == 0.0:
+                        return np.zeros_like(v)
+                    h = fd_step * scale / nv
+                    zt = x[m:] + h * v[m:]
+                    if np.any(zt < 0.0):
+                        h = -h
+                    return (pm(x + h * v)[0] - Px) / h - v
+
+            d, rel, used = _gmres(jv, -F, gmres_rtol, krylov_dim)
+            f0 = float(np.linalg.norm(F))
+            # backtracking on phi(lam) = |F(x + lam d)|^2 with quadratic interpolation
+            # (phi'(0) = -2 phi(0) for an exact Newton direction), lam in [0.1, 0.5] x the last
+            lam, accepted = 1.0, False
+            for _ in range(10):
+                xt = x + lam * d
+                if method != "soft":
+                    xt[m:] = np.maximum(xt[m:], 0.0)
+                Pt, et = pm(xt)
+                Ft = Pt - xt
+                ft = float(np.linalg.norm(Ft))
+                if ft < (1.0 - 1e-4 * lam) * f0:
+                    accepted = True
+                    break
+                phi0, phil = f0 * f0, ft * ft if np.isfinite(ft) else np.inf
+                quad = phi0 * lam * lam / (phil - phi0 + 2.0 * phi0 * lam) if np.isfinite(phil) else 0.0
+                lam = float(np.clip(quad, 0.1 * lam, 0.5 * lam))
+            nit += 1
+            steps.append((lam if accepted else 0.0, rel, used))
+            if not accepted:
+                status = 2
+                message = (f"Newton stagnated at step {nit}: no decrease of |P(x) - x| along the Newton "
+                           f"direction (GMRES relative residual {rel:.2g} after {used} products); ")
+                break
+            x, Px, F, extra = xt, Pt, Ft, et
+            res = max(float(np.max(np.abs(F), initial=0.0)), extra)
+            history.append(res)
+            if callback is not None:
+                callback(nit, res)
+    except _MapError as exc:
+        status, message = exc.status, exc.message + f" (at Newton step {nit})"
+    except KeyboardInterrupt:
+        status, message = 5, f"interrupted at Newton step {nit}: the last iterate is returned"
+    out = result(x, pm, res, nit)
+    if status == 0:
+        out.message = f"converged: max|P(x) - x| = {res:.3g} after {nit} Newton steps"
+    elif status == 1:
+        out.message = (f"iteration limit: max|P(x) - x| = {res:.3g} after {nit} Newton steps; raise max_iter, "
+                       "time-step the guess for more periods, or raise krylov_dim")
+    elif status == 2:
+        out.message = message + ("try a guess closer to the orbit (time-step more periods first), another "
+                                 "section, or a larger krylov_dim; a multiplier near 1 (a neutral mode such as "
+                                 "a front position) makes I - J ill-conditioned")
+    elif status == 7:
+        out.message = (f"the free nodes are periodic to {res:.3g}, but a node stuck at t_start is free after "
+                       "one period; use section='auto' or another t_start")
+    elif status == 6:
+        out.message = message
+    elif status == 3:
+        out.message = message + "; try another method, a smaller time_tol or a guess closer to the orbit"
+    try:
+        _pattern(out, pm, x, simultaneity)
+    except (_MapError, KeyboardInterrupt) as exc:
+        notes.append(f"contact pattern not evaluated ({type(exc).__name__})")
+    if status == 0 and multipliers:
+        try:
+            _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_multipliers,
+                         differentiability_rtol, neutral_tol, growth_periods, notes)
+        except _MapError as exc:
+            notes.append(f"multipliers not computed: {exc.message}")
+        except KeyboardInterrupt:
+            notes.append("multipliers interrupted (KeyboardInterrupt): not computed")
+    out.n_period_maps = n_maps + pm.count
+    return _finish(out, notes, start_clock)
+
+
+def _finish(out, notes, start_clock):
+    if notes:
+        out.message = out.message + "; " + "; ".join(notes)
+    out.time = time.perf_counter() - start_clock
+    return out
+
+
+def _pattern(out, pm, x, simultaneity):
+    """Contact pattern of one period from x (events, contacts per node, sticking intervals)."""
+    run = pm.run(x)
+    ev = run.events
+    n = pm.lattice.n_nodes
+    contact = (ev.kind == "impact") | (ev.kind == "stick")
+    times = [np.asarray(ev.t[contact & (ev.node == j)], dtype=float) for j in range(n)]
+    tau_c = run.cutoff.get("tau_c") if pm.method == "soft" else None
+    out.update(events=ev, events_per_period=int(ev.size),
+               contacts_per_node=np.array([t.size for t in times], dtype=int), contact_times=times,
+               sticking_intervals=_intervals(ev, pm.stuck, pm.t_s, pm.t_s + pm.T, pm.method, tau_c))
+    ct = np.asarray(ev.t[contact], dtype=float)
+    cn = np.asarray(ev.node[contact])
+    order = np.argsort(ct, kind="stable")
+    ct, cn = ct[order], cn[order]
+    simultaneous = False
+    for i in range(ct.size):
+        j = i + 1
+        while j < ct.size and ct[j] - ct[i] <= simultaneity:
+            if cn[j] != cn[i]:
+                simultaneous = True
+                break
+            j += 1
+        if simultaneous:
+            break
+    out.simultaneous_contacts = simultaneous
+
+
+def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, drtol, neutral_tol,
+                 growth_periods, notes):
+    """Floquet multipliers (dense or Arnoldi) after a one-sided differentiability test."""
+    scale = max(1.0, float(np.max(np.abs(x), initial=0.0)))
+    soft = pm.method == "soft"
+    rng = np.random.default_rng(12345)
+    # one-sided test along random directions (positive zeta perturbations are always admissible)
+    h = jacobian_step * scale
+    gap = 0.0
+    size = 0.0
+    # the soft contact's map is differentiable by construction (transversal switching, see
+    # tps_solver.solvers.fda.regularised); its solver noise would fail the one-sided test
+    for _ in range(0 if soft else 2):
+        v = rng.standard_normal(2 * m)
+        v /= np.max(np.abs(v))
+        if not soft:
+            zmin = float(np.min(x[m:], initial=np.inf))
+            hh = min(h, 0.5 * zmin) if zmin > 0 else h
+        else:
+            hh = h
+        fp = (pm(x + hh * v)[0] - Px) / hh
+        fm = (Px - pm(x - hh * v)[0]) / hh
+        gap = max(gap, float(np.max(np.abs(fp - fm))))
+        size = max(size, float(np.max(np.abs(fp) + np.abs(fm))))
+    differentiable = gap <= drtol * max(size, 1.0)
+    out.differentiable = None if soft else bool(differentiable)
+    if not differentiable:
+        reason = ("the period map is not differentiable at the orbit: forward and backward differences "
+                  f"differ by {gap:.3g} (size {size:.3g})")
+        if out.simultaneous_contacts:
+            reason += "; simultaneous contacts: the impact order matters (docs/design.md, hazard 7)"
+        out.growth_factor = _growth(pm, x, growth_periods)
+        notes.append(reason + f"; no multipliers; perturbation growth {out.growth_factor:.4g} per period "
+                     f"over {growth_periods} periods instead")
+        return
+    if soft:        # exact: matrix exponentials and saltation matrices (tps_solver.solvers.shooting.soft_monodromy)
+        lin = SoftMonodromy(pm.lattice, pm.Gamma, pm.e, pm.kw["cutoff"], pm.t_s, pm.t_s + pm.T, pm.state(x)[1],
+                            pm.run(x).events if out.events is None else out.events, dense_max=max(dense_max, 400))
+        mu = lin.multipliers(None if 2 * m <= dense_max else min(n_mult, 2 * m))
+        kind = "all (exact)" if 2 * m <= dense_max else "leading (exact)"
+    elif 2 * m <= dense_max:
+        J = np.empty((2 * m, 2 * m))
+        for k in range(2 * m):
+            hk = h
+            if not soft and k >= m:
+                hk = min(h, 0.5 * x[k]) if x[k] > 0 else h
+            xp, xm = x.copy(), x.copy()
+            xp[k] += hk
+            xm[k] -= hk
+            J[:, k] = (pm(xp)[0] - pm(xm)[0]) / (2.0 * hk)
+        mu = np.linalg.eigvals(J).astype(complex)
+        kind = "all (dense)"
+    else:
+        def jv(v):
+            nv = float(np.max(np.abs(v)))
+            if nv == 0.0:
+                return np.zeros_like(v)
+            hh = fd_step * scale / nv
+            if not soft and np.any(x[m:] + hh * v[m:] < 0.0):
+                hh = -hh
+            return (pm(x + hh * v)[0] - Px) / hh
+
+        # Arnoldi of fixed dimension (one product per step, cost known in advance); ARPACK's
+        # implicit restarts have no useful bound on the number of products when the spectrum
+        # is clustered near 0 (sticking) and the products carry finite-difference noise.
+        k = min(n_mult, 2 * m)
+        dim = min(2 * m, max(2 * k + 1, 20))
+        V = np.zeros((2 * m, dim + 1))
+        H = np.zeros((dim + 1, dim))
+        v0 = rng.standard_normal(2 * m)
+        V[:, 0] = v0 / np.linalg.norm(v0)
+        used = dim
+        for j in range(dim):
+            wv = jv(V[:, j])
+            for _ in range(2):
+                c = V[:, :j + 1].T @ wv
+                H[:j + 1, j] += c
+                wv = wv - V[:, :j + 1] @ c
+            H[j + 1, j] = float(np.linalg.norm(wv))
+            if H[j + 1, j] <= 1e-13 * max(1.0, float(np.max(np.abs(H[:j + 1, :j + 1])))):
+                used = j + 1
+                break
+            V[:, j + 1] = wv / H[j + 1, j]
+        theta, Y = np.linalg.eig(H[:used, :used])
+        order = np.argsort(-np.abs(theta), kind="stable")[:k]
+        mu = theta[order].astype(complex)
+        # Ritz residual estimates |h_{j+1,j} y_j| of the reported pairs
+        out.multiplier_residuals = np.abs(H[used, used - 1] * Y[used - 1, order])
+        out.arnoldi_dim = used
+        kind = "leading (Arnoldi)"
+    mu = mu[np.argsort(-np.abs(mu), kind="stable")]
+    out.multipliers, out.multipliers_kind = mu, kind
+    near = np.abs(mu - 1.0) < neutral_tol
+    out.neutral = bool(np.any(near))
+    if out.neutral:
+        notes.append(f"neutral multiplier {mu[near][0]:.6g} (|mu - 1| < {neutral_tol:g}): a nearly neutral "
+                     "mode (e.g. the front position); I - J is ill-conditioned along it")
+
+
+def _growth(pm, x, periods, size=1e-8, saturation=1e-3, seed=0):
+    """Growth per period of a random zero-mean perturbation of relative size ``size``.
+
+    The protocol of :func:`~tps_solver.check_stability`: zero-mean normal perturbations of the
+    free nodes' w and zeta, each scaled to ``size * max(1, max|w|, max zeta)``, followed next to
+    the reference run; the distance is fitted on the linear window.
+    """
+    rng = np.random.default_rng(seed)
+    m = pm.m
+    scale = size * max(1.0, float(np.max(np.abs(x[:m]), initial=0.0)), float(np.max(x[m:], initial=0.0)))
+    dw = rng.standard_normal(m)
+    dz = rng.standard_normal(m)
+    dw -= dw.mean()
+    dz -= dz.mean()
+    dw *= scale / np.max(np.abs(dw))
+    dz *= scale / np.max(np.abs(dz))
+    t_eval = pm.t_s + pm.T * np.arange(periods + 1)
+    ref = pm.run(x, periods=periods, t_eval=t_eval)
+    per = pm.run(x + np.concatenate((dw, dz)), periods=periods, t_eval=t_eval)
+    k = min(ref.w_eval.shape[0], per.w_eval.shape[0])
+    dist = np.maximum(np.max(np.abs(per.zeta_eval[:k] - ref.zeta_eval[:k]), axis=1),
+                      np.max(np.abs(per.w_eval[:k] - ref.w_eval[:k]), axis=1))
+    return _fit_growth(dist, saturation)
