@@ -7,6 +7,8 @@ from numpy.polynomial.legendre import leggauss
 
 import tps_solver as tps
 from tps_solver.solvers.tps import stick as ts
+from tps_solver.solvers.tps import stick_pattern as tsp
+from tps_solver.solvers.tps import stick_problem as sp
 from tps_solver.operators.helmholtz import LatticeHelmholtz
 
 GAMMAS = (3.9, 4.1, 4.4)
@@ -100,12 +102,12 @@ def test_kernel_is_the_fourier_series():
     x, wq = leggauss(200)
     tau = T * (1 + x) / 2
     for lam in (0.0, -0.05, -3.0):
-        H = ts._H(np.array(lam), tau, T)
+        H = sp.H(np.array(lam), tau, T)
         for n in (0, 1, 3, 7):
             c = np.sum(wq * H * np.exp(-1j * n * tau / 2)) / 2
             want = 0.0 if n == 0 else 1.0 / (T * (1j * n / 2 - lam))
             assert abs(c - want) < 1e-12
-        Hi = ts._H_int(np.array(lam), tau, T)
+        Hi = sp.H_int(np.array(lam), tau, T)
         d = np.gradient(Hi, tau)
         assert np.max(np.abs(d[5:-5] - H[5:-5])) < 1e-3
 
@@ -114,10 +116,10 @@ def test_lattice_kernel_matches_lattice_helmholtz():
     """V diag(H) V^-1 on a lattice has the harmonics of the per-harmonic lattice Helmholtz solve."""
     lat = tps.Lattice.planar(n_nodes=6, length=5.0)
     T = 4 * np.pi
-    md = ts._Modal(lat, T)
+    md = sp.Modal(lat, T)
     x, wq = leggauss(200)
     tau = T * (1 + x) / 2
-    H = ts._H(md.lam[None, :], tau[:, None], T)                  # (Q, P)
+    H = sp.H(md.lam[None, :], tau[:, None], T)                  # (Q, P)
     R = np.einsum("jp,qp,pi->qji", md.V, H, md.Vinv)            # (Q, j, i)
     N = 4
     solver = LatticeHelmholtz(lat, M=2, N=N)
@@ -135,14 +137,14 @@ def test_bad_input():
     with pytest.raises(ValueError, match="Gamma"):
         ts.flat_stick_orbit(0.9)
     with pytest.raises(ValueError, match="K >= 1"):
-        ts._make_pattern([0], ["stick"], [1.0], [1.0], [2.0], [-1], [0], 2, 4 * np.pi)
+        tsp.make_pattern([0], ["stick"], [1.0], [1.0], [2.0], [-1], [0], 2, 4 * np.pi)
     with pytest.raises(ValueError, match="does not exist"):
-        ts._make_pattern([0, 0], ["stick", "bounce"], [1.0, 1.5], [1.0, 1.0], [2.0, np.nan],
+        tsp.make_pattern([0, 0], ["stick", "bounce"], [1.0, 1.5], [1.0, 1.0], [2.0, np.nan],
                          [-1, -1], [0, 0], 1, 4 * np.pi)
     with pytest.raises(ValueError, match="kind"):
-        ts._make_pattern([0], ["slide"], [1.0], [1.0], [2.0], [-1], [0], 1, 4 * np.pi)
+        tsp.make_pattern([0], ["slide"], [1.0], [1.0], [2.0], [-1], [0], 1, 4 * np.pi)
     with pytest.raises(ValueError, match="K >= 1"):
-        ts._make_pattern([], [], [], [], [], [], [], 1, 4 * np.pi)
+        tsp.make_pattern([], [], [], [], [], [], [], 1, 4 * np.pi)
     lat = tps.Lattice.planar(n_nodes=5, length=8.0, boundary="pinned")
     with pytest.raises(ValueError, match="neumann"):
         ts.solve_stick_lattice(lat, 4.1)
