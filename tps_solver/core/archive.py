@@ -1,71 +1,155 @@
-r"""One file format for every result: :func:`save` and :func:`load`.
+r"""One file format for every result: the archive, its codecs and its validation.
 
 A result file is a NumPy ``.npz`` archive read with ``allow_pickle=False``.  It holds
 
-* ``format`` = ``"tps_solver"`` and ``format_version`` (:data:`FORMAT_VERSION`);
-* ``kind``: the result type, a key of :data:`KINDS` (``"PeriodicSolution"``,
-  ``"LatticeCycle"``, ``"StabilityResult"``, ``"SimulationResult"``, ``"SecularRoots"``);
-* the fields of the result, each a NumPy array (numbers, strings, 0-d arrays for
-  scalars); a :class:`~tps_solver.Lattice` is stored as its nodes, geometry,
-  boundary and grid, a :class:`~tps_solver.FlatLayer` as (Gamma, M, e, t0).
+* ``format`` = ``"tps_solver"``, ``format_version`` (:data:`FORMAT_VERSION`) and ``kind``
+  (the registered name of the result type, e.g. ``"PeriodicSolution"``);
+* ``tree``: a JSON text describing the structure of the stored object -- for every field
+  its type (``float``, ``int``, ``bool``, ``complex``, ``str``, ``None``, a NumPy scalar of
+  its exact dtype, an array, a list, tuple or dict of such, a nested bunch, a nested
+  registered object);
+* one array per leaf, named by its path (``w_hat``, ``flat.Gamma``,
+  ``special_points.0.solution.tc``), holding the value exactly (same dtype, same bits);
+* a SHA-256 seal of every byte before it, written as the zip comment
+  (``tps_solver-sha256:<hex>``): a flipped byte anywhere in the file, a truncated file or
+  a file rewritten by another program is refused.
 
-File names: :func:`save` appends ``.npz`` when the name does not end with it and
-returns the path it wrote; :func:`load` accepts the name with or without ``.npz``.
+**Codecs.**  This module knows no result type: each type registers itself from its own
+module with :func:`register` -- a ``Bunch`` result by its class (every field is stored by the
+generic encoder, so fields added later round-trip without a new codec; fields that cannot
+be stored, such as callables or live solver objects, are declared ``transient`` and rebuilt
+by ``restore``), a value type (``FlatLayer``, ``Lattice``, ...) by ``encode``/``decode``
+functions that give and take its constructor inputs.  A type's ``validate`` checks the
+physical fields on load with the typed accessors of :class:`Fields`.  The public reader,
+which imports every result module so that every codec is registered, is
+:func:`tps_solver.analyses.files.load` (``tps_solver.load``).
 
-Validation on load: a file that is not a readable ``.npz`` archive (truncated,
-damaged, pickled, foreign) raises ``ValueError`` saying so; so does a file of a
-newer format version (the message names the version), a missing or mistyped field,
-and an inconsistent one.  What is derived is recomputed rather than trusted: the
-flat layer from (Gamma, M, t0) and its restitution compared with the stored ``e``
-(19); the height harmonics from the velocity harmonics by (39)-(40); the lattice
-from its nodes; the physical checks of a TPS solution; the modal decomposition of a
-lattice cycle.  Files written before the format was versioned (``PeriodicSolution``
-only, no ``format`` entry) are read as format version 0.
-
-The result classes call :func:`save` from their ``save`` method; :func:`load` finds
-the class of a file's ``kind`` by the module named in :data:`KINDS`, so this module
-imports none of them (no import cycle).
+**Validation on load.**  Every failure is a ``ValueError`` that names the file: not a
+file name, a directory, an empty, truncated, damaged (seal broken), pickled or foreign file,
+a newer format version, an unknown kind, a missing or mistyped field, and an inconsistent
+or unphysical one (the type's ``validate``).  Files of format versions 0 and 1 (before the
+seal) are read by a type's ``legacy`` reader where it has one.
 
 Examples
 --------
 >>> import os, tempfile
->>> from tps_solver import FlatLayer, check_stability
->>> chk = check_stability(FlatLayer(2.5, 2, e=0.45), periods=3, n_nodes=4)
+>>> from tps_solver.core.bunch import Bunch
+>>> class Toy(Bunch):
+...     pass
+>>> register("Toy", Toy)
+>>> toy = Toy(x=np.arange(3.0), label="a", n=np.int32(7), parts=[1.5, None])
 >>> with tempfile.TemporaryDirectory() as d:
-...     path = save(chk, os.path.join(d, "check"))
-...     back = load(os.path.join(d, "check"))
-...     print(os.path.basename(path), back.stable == chk.stable, type(back).__name__)
-check.npz True StabilityResult
+...     back = load(save(toy, os.path.join(d, "toy")))
+>>> type(back).__name__, back.x.tolist(), back.label, type(back.n).__name__, back.parts
+('Toy', [0.0, 1.0, 2.0], 'a', 'int32', [1.5, None])
 """
-import importlib
+import hashlib
+import json
 import math
 import os
+import re
 import tempfile
 import zipfile
 import zlib
+from io import BytesIO
 
 import numpy as np
 
-from tps_solver.model.flat import FlatLayer
-from tps_solver.model.harmonics import evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
-from tps_solver.operators.lattice import Lattice
-from tps_solver.core.orbit import STATUS
+from tps_solver.core.bunch import Bunch
 
-__all__ = ["save", "load", "npz_path", "FORMAT", "FORMAT_VERSION", "KINDS"]
+__all__ = ["save", "load", "register", "registered", "npz_path", "Fields", "FORMAT", "FORMAT_VERSION"]
 
 FORMAT = "tps_solver"
-#: Version written by :func:`save`; :func:`load` reads versions 0 .. FORMAT_VERSION.
-FORMAT_VERSION = 1
-#: kind -> module defining the class of that name
-KINDS = {
-    "PeriodicSolution": "tps_solver.solvers.tps.result",
-    "LatticeCycle": "tps_solver.solvers.tps.cycle",
-    "StabilityResult": "tps_solver.analyses.stability",
-    "SimulationResult": "tps_solver.solvers.fda.common",
-    "SecularRoots": "tps_solver.model.linear_stability",
-}
-_META = ("format", "format_version", "kind")
-_V0_KEYS = {"geometry", "nodes", "tc", "w_hat", "zeta_hat", "zeta_shift", "Gamma", "e", "t0", "M", "N"}
+#: Version written by :func:`save`; versions 0 and 1 (no seal) are read by a type's ``legacy`` reader.
+FORMAT_VERSION = 2
+_META = ("format", "format_version", "kind", "tree")
+_SEAL = b"tps_solver-sha256:"
+_SEAL_LEN = len(_SEAL) + 64
+_NAME = re.compile(r"^[A-Za-z0-9_]+$")
+
+
+class _Codec:
+    __slots__ = ("kind", "cls", "encode", "decode", "transient", "validate", "restore", "legacy")
+
+    def __init__(self, **kw):
+        for key, value in kw.items():
+            setattr(self, key, value)
+
+
+#: kind -> codec; filled once at import time by the modules that define the types (never changed later)
+_CODECS = {}
+
+
+def _registry():
+    return _CODECS
+
+
+def register(kind, cls, *, encode=None, decode=None, transient=(), validate=None, restore=None, legacy=None):
+    """Register the codec of a result or value type (called once, from the type's own module).
+
+    Parameters
+    ----------
+    kind : str
+        The name written in files (normally the class name).
+    cls : type
+        The class; instances of exactly this class use this codec.
+    encode, decode : callable, optional
+        For a value type that is not a dict: ``encode(obj) -> dict`` of storable values
+        (normally the constructor inputs, so the object is rebuilt bit for bit) and
+        ``decode(dict) -> obj``.  A ``ValueError`` from ``decode`` is reported with the file
+        and field.  Without them ``cls`` must be a ``dict`` subclass (a result ``Bunch``): every
+        field not ``transient`` is stored by the generic encoder.
+    transient : iterable of str, optional
+        Fields not stored (callables, live solvers); ``restore`` rebuilds them.
+    validate : callable, optional
+        ``validate(f)`` with ``f`` a :class:`Fields` over the decoded fields: raise through
+        ``f.fail`` (or ``f.array`` etc.) if a field is unphysical or inconsistent.
+    restore : callable, optional
+        ``restore(obj)`` after loading, e.g. to rebuild transient fields.
+    legacy : callable, optional
+        ``legacy(f) -> obj`` reading a file of format version 0 or 1.
+
+    Examples
+    --------
+    >>> class Pair:
+    ...     def __init__(self, a, b):
+    ...         self.a, self.b = a, b
+    >>> register("Pair", Pair, encode=lambda p: {"a": p.a, "b": p.b}, decode=lambda d: Pair(d["a"], d["b"]))
+    >>> "Pair" in registered()
+    True
+    """
+    if not isinstance(kind, str) or not _NAME.match(kind):
+        raise ValueError(f"kind must be a name of letters, digits and '_', got {kind!r}")
+    if not isinstance(cls, type):
+        raise ValueError(f"cls must be a class, got {cls!r}")
+    if (encode is None) != (decode is None):
+        raise ValueError("encode and decode must be given together")
+    if encode is None and not issubclass(cls, dict):
+        raise ValueError(f"cls {cls.__name__} is not a dict: give encode and decode")
+    reg = _registry()
+    old = reg.get(kind)
+    if old is not None and old.cls.__qualname__ != cls.__qualname__:
+        raise ValueError(f"kind {kind!r} is already registered for {old.cls.__module__}.{old.cls.__qualname__}")
+    reg[kind] = _Codec(kind=kind, cls=cls, encode=encode, decode=decode, transient=frozenset(transient),
+                       validate=validate, restore=restore, legacy=legacy)
+
+
+def registered():
+    """The kinds registered so far, in registration order.
+
+    Examples
+    --------
+    >>> isinstance(registered(), tuple)
+    True
+    """
+    return tuple(_registry())
+
+
+def _codec_of(obj):
+    for codec in _registry().values():
+        if type(obj) is codec.cls:
+            return codec
+    return None
 
 
 def npz_path(path):
@@ -76,143 +160,142 @@ def npz_path(path):
     >>> npz_path("run"), npz_path("run.npz")
     ('run.npz', 'run.npz')
     """
-    path = os.fspath(path)
-    if not isinstance(path, str) or not path:
-        raise ValueError(f"path must be a non-empty file name, got {path!r}")
+    path = _fspath(path)
     return path if path.endswith(".npz") else path + ".npz"
 
 
-# ----------------------------------------------------------------------------- writing
+def _fspath(path):
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path must be a file name (str or os.PathLike), got {path!r}")
+    path = os.fspath(path)
+    if not isinstance(path, str) or not path:
+        raise ValueError(f"path must be a non-empty file name, got {path!r}")
+    return path
 
 
-def _lattice_fields(prefix, lattice):
-    if lattice is None:
-        return {f"{prefix}.present": np.array(False)}
-    return {f"{prefix}.present": np.array(True), f"{prefix}.nodes": np.asarray(lattice.nodes, dtype=float),
-            f"{prefix}.geometry": np.array(lattice.geometry), f"{prefix}.boundary": np.array(lattice.boundary),
-            f"{prefix}.grid": np.array(lattice.grid)}
+# ----------------------------------------------------------------------------- encoding
+
+_SCALARS = {bool: ("bool", np.bool_), int: ("int", np.int64), float: ("float", np.float64),
+            complex: ("complex", np.complex128), str: ("str", np.str_)}
 
 
-def _cutoff_fields(cutoff):
-    length = cutoff.get("length")
-    out = {"cutoff.kind": np.array(str(cutoff.get("kind"))),
-           "cutoff.length": np.array(np.nan if length is None else float(length))}
-    if "tau_c" in cutoff:
-        out["cutoff.tau_c"] = np.array(float(cutoff["tau_c"]))
-    return out
+def _join(path, name):
+    return f"{path}.{name}" if path else str(name)
 
 
-def _orbit_fields(r):
-    return {"converged": np.array(bool(r.converged)), "status": np.array(int(r.status)),
-            "message": np.array(str(r.message)), "nit": np.array(int(r.nit)),
-            "residual": np.array(float(r.residual)),
-            "residual_history": np.asarray(r.residual_history, dtype=float),
-            "Gamma": np.array(float(r.Gamma)), "e": np.array(float(r.e)), "t0": np.array(float(r.t0)),
-            "M": np.array(int(r.M)), "coupling": np.array(float(r.coupling)),
-            "continuation_path": np.asarray(r.continuation_path, dtype=float).reshape(-1, 3),
-            "time": np.array(float(r.get("time", np.nan)))}
+def _encode(value, path, arrays):
+    """The tree node of ``value``; its arrays go into ``arrays`` under names derived from ``path``."""
+    where = path or "the result"
+    t = type(value)
+    if value is None:
+        return {"t": "none"}
+    if t in _SCALARS:
+        tag, make = _SCALARS[t]
+        if t is int and not -2 ** 63 <= value < 2 ** 63:
+            raise ValueError(f"{where}: the integer {value} does not fit in 64 bits")
+        arrays[path] = np.array(value, dtype=make)
+        return {"t": tag}
+    if isinstance(value, np.generic):
+        if value.dtype.hasobject:
+            raise ValueError(f"{where}: a NumPy object scalar cannot be stored")
+        arrays[path] = np.array(value)
+        return {"t": "scalar"}
+    if t is np.ndarray or t is np.recarray:
+        if value.dtype.hasobject:
+            raise ValueError(f"{where}: an array of Python objects cannot be stored (give it a numeric "
+                             f"or string dtype)")
+        arrays[path] = np.array(value.view(np.ndarray) if t is np.recarray else value, copy=True)
+        return {"t": "recarray" if t is np.recarray else "array"}
+    if t in (list, tuple):
+        return {"t": t.__name__, "items": [_encode(v, _join(path, i), arrays) for i, v in enumerate(value)]}
+    if t is dict and all(isinstance(k, str) and _NAME.match(k) for k in value):
+        return {"t": "dict", "fields": _fields(value, path, arrays)}
+    if t is dict:
+        items = [_encode((k, v), _join(path, i), arrays) for i, (k, v) in enumerate(value.items())]
+        return {"t": "items", "items": items}
+    if t is Bunch:
+        return {"t": "bunch", "fields": _fields(value, path, arrays)}
+    codec = _codec_of(value)
+    if codec is not None:
+        if codec.encode is not None:
+            data = codec.encode(value)
+        else:
+            data = {k: v for k, v in value.items() if k not in codec.transient}
+        return {"t": "obj", "kind": codec.kind, "fields": _fields(data, path, arrays)}
+    raise ValueError(f"{where}: a {t.__module__}.{t.__qualname__} cannot be stored (register its codec with "
+                     f"tps_solver.core.archive.register, or declare the field transient)")
 
 
-def _encode_periodic_solution(r):
-    out = _orbit_fields(r)
-    out.update(geometry=np.array(r.geometry), nodes=np.asarray(r.nodes, dtype=float),
-               tc=np.asarray(r.tc, dtype=float), w_hat=np.asarray(r.w_hat, dtype=complex),
-               zeta_hat=np.asarray(r.zeta_hat, dtype=complex),
-               zeta_shift=np.asarray(r.zeta_shift, dtype=float), N=np.array(int(r.N)),
-               min_shift=np.array(bool(r.min_shift)), scheme=np.array(str(r.scheme)),
-               tail_correction=np.array(bool(r.tail_correction)))
-    out.update(_lattice_fields("lattice", r.get("lattice")))
-    return out
-
-
-def _encode_lattice_cycle(r):
-    out = _orbit_fields(r)
-    out.update(tc=np.asarray(r.tc, dtype=float), branch=np.array(r.flat.branch))
-    out.update(_lattice_fields("lattice", r.lattice))
-    return out
-
-
-def _encode_stability(r):
-    diff = r.differentiable
-    out = {"defects": np.asarray(r.defects, dtype=float).reshape(-1, 2),
-           "initial_defect": np.asarray(r.initial_defect, dtype=float),
-           "growth_factor": np.array(float(r.growth_factor)),
-           "growth_history": np.asarray(r.growth_history, dtype=float),
-           "growth_window": np.asarray(r.growth_window, dtype=np.int64),
-           "multipliers": np.asarray(r.multipliers, dtype=complex),
-           "multipliers_kind": np.array(str(r.multipliers_kind)),
-           "uniform_multipliers": np.asarray(r.uniform_multipliers, dtype=complex),
-           "differentiable": np.array(-1 if diff is None else int(bool(diff))),
-           "stable": np.array(bool(r.stable)), "message": np.array(str(r.message)),
-           "events_per_period": np.asarray(r.events_per_period, dtype=np.int64),
-           "sticking_nodes": np.asarray(r.sticking_nodes, dtype=np.int64),
-           "cutoff_limited": np.array(bool(r.cutoff_limited)), "method": np.array(str(r.method)),
-           "period": np.array(float(r.period)), "section_time": np.array(float(r.section_time)),
-           "periods": np.array(int(r.periods)), "success": np.array(bool(r.success))}
-    out.update(_cutoff_fields(r.cutoff))
-    out.update(_lattice_fields("lattice", r.lattice))
-    return out
-
-
-def _encode_simulation(r):
-    ev = np.asarray(r.events)
-    out = {"t": np.array(float(r.t)), "w": np.asarray(r.w, dtype=float), "zeta": np.asarray(r.zeta, dtype=float),
-           "stuck": np.asarray(r.stuck, dtype=bool), "events.t": np.asarray(ev["t"], dtype=float),
-           "events.node": np.asarray(ev["node"], dtype=np.int64), "events.kind": np.asarray(ev["kind"], dtype="U7"),
-           "events.w_before": np.asarray(ev["w_before"], dtype=float),
-           "success": np.array(bool(r.success)), "status": np.array(int(r.status)),
-           "message": np.array(str(r.message)), "t_eval": np.asarray(r.t_eval, dtype=float),
-           "w_eval": np.asarray(r.w_eval, dtype=float), "zeta_eval": np.asarray(r.zeta_eval, dtype=float),
-           "method": np.array(str(r.method)), "n_steps": np.array(int(r.n_steps)),
-           "Gamma": np.array(float(r.Gamma)), "e": np.array(float(r.e))}
-    out.update(_cutoff_fields(r.cutoff))
-    out.update(_lattice_fields("lattice", r.lattice))
-    return out
-
-
-def _encode_secular_roots(r):
-    return {"kappa": np.array(float(r.kappa)), "mode": np.array(str(r.mode)),
-            "gamma": np.asarray(r.gamma, dtype=complex), "lam": np.asarray(r.lam, dtype=float),
-            "trivial": np.asarray(r.trivial, dtype=complex),
-            "trivial_is_eigenvalue": np.asarray(r.trivial_is_eigenvalue, dtype=bool),
-            "n_enclosed": np.array(int(r.n_enclosed)), "complete": np.array(bool(r.complete)),
-            "contour": np.asarray(r.contour, dtype=float),
-            "error_bound": np.asarray(r.get("error_bound", np.full(len(r.gamma), np.nan)), dtype=float),
-            "polished": np.asarray(r.get("polished", np.zeros(len(r.gamma), bool)), dtype=bool)}
-
-
-_ENCODERS = {"PeriodicSolution": _encode_periodic_solution, "LatticeCycle": _encode_lattice_cycle,
-             "StabilityResult": _encode_stability, "SimulationResult": _encode_simulation,
-             "SecularRoots": _encode_secular_roots}
-#: fields recomputed on load (never stored)
-_DERIVED = {"PeriodicSolution": {"flat", "checks", "period", "spacing", "success"},
-            "LatticeCycle": {"flat", "period", "J", "eigenvalues", "modes", "modes_inv", "zeta_offset", "nodes",
-                             "geometry", "success"},
-            "StabilityResult": set(), "SimulationResult": {"n_events"}, "SecularRoots": set()}
-
-
-def _extra_fields(result, fields, kind):
-    """Further fields of ``result`` of plain type (numbers, str, numeric arrays), stored as ``extra.<name>``."""
-    covered = {k.split(".")[0] for k in fields} | _DERIVED[kind]
+def _fields(mapping, path, arrays):
     out = {}
-    for key, value in result.items():
-        if key in covered:
-            continue
-        if value is None or isinstance(value, (bool, int, float, str, np.generic)):
-            if value is None:
-                continue
-            out[f"extra.{key}"] = np.array(value)
-        elif isinstance(value, np.ndarray) and value.dtype.kind in "biufcU":
-            out[f"extra.{key}"] = value
+    for key, v in mapping.items():
+        if not isinstance(key, str) or not _NAME.match(key):
+            raise ValueError(f"{path or 'the result'}: the field name {key!r} cannot be stored "
+                             f"(letters, digits and '_' only)")
+        if not path and key in _META:
+            raise ValueError(f"the field name {key!r} is reserved by the archive")
+        out[key] = _encode(v, _join(path, key), arrays)
     return out
+
+
+def checksum(body):
+    """The seal of the bytes ``body`` of an archive: ``b"tps_solver-sha256:" + hex digest``.
+
+    Internal (used by the writer and by tests that rewrite a file on purpose).
+
+    Examples
+    --------
+    >>> len(checksum(b"abc"))
+    82
+    """
+    return _SEAL + hashlib.sha256(body).hexdigest().encode()
+
+
+def write_arrays(path, arrays):
+    """Write ``arrays`` (a dict of NumPy arrays) as a sealed ``.npz`` at ``path``, atomically.
+
+    Internal: :func:`save` writes through it; a test that damages a field on purpose
+    rewrites the file with it, so that the field's own validation is what refuses it.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = write_arrays(os.path.join(d, "a.npz"), {"x": np.arange(2)})
+    ...     print(read_arrays(p)["x"])
+    [0 1]
+    """
+    target = npz_path(path)
+    buf = BytesIO()
+    np.savez_compressed(buf, **arrays)
+    raw = buf.getvalue()
+    # the end-of-central-directory record (22 bytes, empty comment) ends the zip: put the seal there
+    if raw[-22:-18] != b"PK\x05\x06" or raw[-2:] != b"\x00\x00":
+        raise RuntimeError("unexpected zip layout from numpy.savez_compressed")
+    body = raw[:-2] + _SEAL_LEN.to_bytes(2, "little")
+    data = body + checksum(body)
+    directory = os.path.dirname(os.path.abspath(target))
+    if not os.path.isdir(directory):
+        raise FileNotFoundError(f"cannot write {target}: the directory {directory} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, target)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return target
 
 
 def save(result, path):
-    """Write ``result`` to ``path`` (``.npz`` appended if missing); returns the path written.
+    """Write a registered result to ``path`` (``.npz`` appended if missing); returns the path written.
 
     Parameters
     ----------
-    result : PeriodicSolution, LatticeCycle, StabilityResult, SimulationResult or SecularRoots
+    result : object
+        An instance of a registered type (:func:`registered`).
     path : str or os.PathLike
 
     Returns
@@ -223,7 +306,8 @@ def save(result, path):
     Raises
     ------
     ValueError
-        If ``result`` is not one of the result types of :data:`KINDS`.
+        If ``result`` is not of a registered type, or holds a field that cannot be stored
+        (the message names the field).
     FileNotFoundError, PermissionError
         If the directory does not exist or cannot be written; the file is written to a
         temporary name first and renamed, so a failed save leaves no partial file.
@@ -231,345 +315,190 @@ def save(result, path):
     Examples
     --------
     >>> import os, tempfile
-    >>> from tps_solver import secular_roots
-    >>> roots = secular_roots(1.0, "sinuous", 3)
+    >>> from tps_solver.core.bunch import Bunch
+    >>> class Note(Bunch):
+    ...     pass
+    >>> register("Note", Note)
     >>> with tempfile.TemporaryDirectory() as d:
-    ...     path = save(roots, os.path.join(d, "roots"))
+    ...     path = save(Note(text="hi"), os.path.join(d, "note"))
     ...     with np.load(path, allow_pickle=False) as f:
-    ...         print(os.path.basename(path), f["format"], f["format_version"], f["kind"])
-    roots.npz tps_solver 1 SecularRoots
+    ...         print(os.path.basename(path), f["format"], f["format_version"], f["kind"], f["text"])
+    note.npz tps_solver 2 Note hi
     >>> save({"gamma": 1.0}, "roots")
     Traceback (most recent call last):
     ...
-    ValueError: result must be one of PeriodicSolution, LatticeCycle, StabilityResult, SimulationResult, SecularRoots, got dict
+    ValueError: result must be a registered result type (see tps_solver.core.archive.registered()), got dict
     """
-    kind = type(result).__name__
-    if kind not in _ENCODERS:
-        raise ValueError(f"result must be one of {', '.join(KINDS)}, got {kind}")
-    target = npz_path(path)
-    fields = _ENCODERS[kind](result)
-    fields.update(_extra_fields(result, fields, kind))
-    arrays = {"format": np.array(FORMAT), "format_version": np.array(FORMAT_VERSION), "kind": np.array(kind)}
-    arrays.update(fields)
-    directory = os.path.dirname(os.path.abspath(target))
-    if not os.path.isdir(directory):
-        raise FileNotFoundError(f"cannot write {target}: the directory {directory} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
-        os.replace(tmp, target)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return target
+    codec = _codec_of(result)
+    if codec is None:
+        raise ValueError(f"result must be a registered result type (see tps_solver.core.archive.registered()), "
+                         f"got {type(result).__name__}")
+    arrays = {}
+    tree = _encode(result, "", arrays)
+    meta = {"format": np.array(FORMAT), "format_version": np.array(FORMAT_VERSION),
+            "kind": np.array(codec.kind), "tree": np.array(json.dumps(tree, separators=(",", ":")))}
+    meta.update(arrays)
+    return write_arrays(path, meta)
 
 
 # ----------------------------------------------------------------------------- reading
 
 
-class _Fields:
-    """Typed access to the arrays of one file; every failure is a ValueError naming the file and field."""
+class Fields:
+    """Typed access to the decoded fields of one object, for a codec's ``validate``.
 
-    def __init__(self, data, path, kind, version):
-        self.data, self.path, self.kind, self.version = data, path, kind, version
+    Every failure is a ``ValueError`` naming the file, the object's kind and the field.
+
+    Parameters
+    ----------
+    data : dict
+        The decoded fields.
+    path : str
+        The file (for messages).
+    kind : str
+    version : int
+        Format version of the file.
+    prefix : str, optional
+        Path of the object inside the file (nested objects).
+
+    Examples
+    --------
+    >>> f = Fields({"tc": np.zeros(3)}, "x.npz", "Toy", 2)
+    >>> f.array("tc", "f", shape=(3,)).shape
+    (3,)
+    >>> f.array("tc", "f", shape=(4,))
+    Traceback (most recent call last):
+    ...
+    ValueError: x.npz: the field 'tc' must have shape (4,), got (3,) (a Toy file, format version 2)
+    """
+
+    def __init__(self, data, path, kind, version, prefix=""):
+        self.data, self.path, self.kind, self.version, self.prefix = data, path, kind, version, prefix
 
     def fail(self, what):
-        raise ValueError(f"{self.path}: {what} (a {self.kind} file, format version {self.version})")
+        """Raise the ``ValueError`` ``what`` for this file."""
+        where = f" (field {self.prefix!r})" if self.prefix else ""
+        raise ValueError(f"{self.path}: {what} (a {self.kind} file{where}, format version {self.version})")
 
     def has(self, name):
+        """Whether the field ``name`` is present."""
         return name in self.data
 
-    def _get(self, name):
+    def get(self, name):
+        """The field ``name`` as decoded (missing: an error)."""
         if name not in self.data:
             self.fail(f"the field {name!r} is missing")
         return self.data[name]
 
     def scalar(self, name, kinds, finite=False):
-        a = self._get(name)
-        if a.shape != () or a.dtype.kind not in kinds:
-            self.fail(f"the field {name!r} must be a scalar of kind {kinds!r}, got dtype {a.dtype} shape {a.shape}")
+        """A number, bool or str of NumPy dtype kind in ``kinds``."""
+        a = self.get(name)
+        if isinstance(a, (bool, int, float, complex, str, np.generic)):
+            a = np.asarray(a)
+        if not isinstance(a, np.ndarray) or a.shape != () or a.dtype.kind not in kinds:
+            got = f"dtype {a.dtype} shape {a.shape}" if isinstance(a, np.ndarray) else type(a).__name__
+            self.fail(f"the field {name!r} must be a scalar of kind {kinds!r}, got {got}")
         value = a.item()
         if finite and not math.isfinite(value):
             self.fail(f"the field {name!r} must be finite, got {value!r}")
         return value
 
     def float(self, name, finite=True):
+        """A real number (finite unless ``finite=False``)."""
         return float(self.scalar(name, "fi", finite))
 
     def int(self, name, minimum=None):
+        """An integer, at least ``minimum``."""
         value = int(self.scalar(name, "iu"))
         if minimum is not None and value < minimum:
             self.fail(f"the field {name!r} must be >= {minimum}, got {value}")
         return value
 
     def bool(self, name):
+        """A bool."""
         return bool(self.scalar(name, "b"))
 
     def str(self, name, choices=None):
+        """A string, one of ``choices`` if given."""
         value = str(self.scalar(name, "U"))
         if choices is not None and value not in choices:
             self.fail(f"the field {name!r} must be one of {', '.join(map(repr, choices))}, got {value!r}")
         return value
 
     def array(self, name, kinds, shape=None, ndim=None, finite=False):
-        a = self._get(name)
+        """An array of dtype kind in ``kinds``; ``shape`` may hold None for any length."""
+        a = self.get(name)
+        if not isinstance(a, np.ndarray):
+            self.fail(f"the field {name!r} must be an array, got {type(a).__name__}")
         if a.dtype.kind not in kinds:
             self.fail(f"the field {name!r} must be an array of kind {kinds!r}, got dtype {a.dtype}")
         if ndim is not None and a.ndim != ndim:
             self.fail(f"the field {name!r} must have {ndim} dimension(s), got shape {a.shape}")
         if shape is not None and (a.ndim != len(shape) or any(s is not None and s != n
                                                                for s, n in zip(shape, a.shape))):
-            want = "(" + ", ".join("k" if s is None else str(s) for s in shape) + ")"
+            want = "(" + ", ".join("k" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
             self.fail(f"the field {name!r} must have shape {want}, got {a.shape}")
         if finite and a.dtype.kind in "fc" and not np.all(np.isfinite(a)):
             self.fail(f"the field {name!r} holds non-finite values")
-        return np.array(a)
+        return a
 
-    def lattice(self, prefix="lattice"):
-        if not self.bool(f"{prefix}.present"):
-            return None
-        nodes = self.array(f"{prefix}.nodes", "f", ndim=1, finite=True)
-        geometry = self.str(f"{prefix}.geometry", ("planar", "axisymmetric"))
-        boundary = self.str(f"{prefix}.boundary")
-        grid = self.str(f"{prefix}.grid")
-        try:
-            return Lattice(nodes, geometry, boundary, grid=grid)
-        except ValueError as exc:
-            self.fail(f"the stored lattice is invalid: {exc}")
-
-    def cutoff(self):
-        out = {"kind": self.str("cutoff.kind"), "length": self.float("cutoff.length", finite=False)}
-        if math.isnan(out["length"]):
-            out["length"] = None
-        if self.has("cutoff.tau_c"):
-            out["tau_c"] = self.float("cutoff.tau_c")
-        return out
-
-    def flat(self):
-        """The flat layer of (Gamma, M, t0), checked against the stored restitution (19)."""
-        Gamma, M, t0 = self.float("Gamma"), self.int("M", minimum=1), self.float("t0")
-        e = self.float("e")
-        try:
-            fl = FlatLayer(Gamma, M, t0=t0)
-        except ValueError as exc:
-            self.fail(f"the stored flat layer (Gamma = {Gamma}, M = {M}, t0 = {t0}) is invalid: {exc}")
-        if not abs(fl.e - e) <= 1e-9:
-            self.fail(f"inconsistent: the stored e = {e!r} but the flat layer launched at the stored "
-                      f"t0 = {t0!r} (Gamma = {Gamma}, M = {M}) has e = {fl.e:.15g} by (19)")
-        return fl
-
-    def status(self, converged_name="converged"):
+    def status(self, table, converged_name="converged"):
+        """``(status, converged)``: a code of ``table`` and a flag that agrees with it (0 = converged)."""
         status = self.int("status")
-        if status not in STATUS:
+        if status not in table:
             self.fail(f"the field 'status' must be a code of tps_solver.STATUS, got {status}")
         converged = self.bool(converged_name)
         if converged != (status == 0):
-            self.fail(f"inconsistent: converged = {converged} but status = {status} ({STATUS[status]})")
+            self.fail(f"inconsistent: {converged_name} = {converged} but status = {status} ({table[status]})")
         return status, converged
 
-
-def _class(kind):
-    return getattr(importlib.import_module(KINDS[kind]), kind)
-
-
-def _orbit_common(f):
-    status, converged = f.status()
-    nit = f.int("nit", minimum=0)
-    history = f.array("residual_history", "f", ndim=1)
-    coupling = f.float("coupling")
-    if not 0.0 < coupling <= 1.0:
-        f.fail(f"the field 'coupling' must be in (0, 1], got {coupling}")
-    return dict(converged=converged, success=converged, status=status, message=f.str("message"), nit=nit,
-                residual=f.float("residual", finite=False), residual_history=history, coupling=coupling,
-                continuation_path=f.array("continuation_path", "f", shape=(None, 3)),
-                time=f.float("time", finite=False) if f.has("time") else float("nan"))
+    def instance(self, name, cls, optional=False):
+        """A field holding an instance of ``cls`` (or None if ``optional``)."""
+        value = self.get(name)
+        if value is None and optional:
+            return None
+        if not isinstance(value, cls):
+            self.fail(f"the field {name!r} must be a {cls.__name__}, got {type(value).__name__}")
+        return value
 
 
-def _decode_periodic_solution(f):
-    fl = f.flat()
-    M, T = fl.M, fl.period
-    N = f.int("N", minimum=1)
-    geometry = f.str("geometry", ("planar", "axisymmetric"))
-    nodes = f.array("nodes", "f", ndim=1, finite=True)
-    n = nodes.size
-    if n < 1 or np.any(np.diff(nodes) <= 0):
-        f.fail("the field 'nodes' must be a non-empty, strictly increasing array")
-    tc = f.array("tc", "f", shape=(n,), finite=True)
-    if np.any(tc < 0) or np.any(tc >= T):
-        f.fail(f"the field 'tc' must lie in [0, T) with T = 2 pi M = {T:.6g}")
-    w_hat = f.array("w_hat", "fc", shape=(2 * N + 1, n), finite=True).astype(complex)
-    zeta_hat = f.array("zeta_hat", "fc", shape=(2 * N + 1, n), finite=True).astype(complex)
-    zeta_shift = f.array("zeta_shift", "f", shape=(n,), finite=True)
-    tail = f.bool("tail_correction") if f.has("tail_correction") else True
-    # (39)-(40): the height harmonics follow from the velocity harmonics and the contact times
-    expect = height_from_velocity(w_hat, M)
-    k = mode_numbers(N)
-    nz = k != 0
-    expect[N] = -np.real(np.sum(expect[nz] * np.exp(1j * np.outer(k[nz] / M, tc)), axis=0))
-    if tail:
-        J = T / fl.Gamma
-        expect[N] -= J * float(sawtooth(0.0, M, "height") - evaluate(sawtooth_hat(N, M, [0.0], "height"),
-                                                                       [0.0], M)[0, 0])
-    scale = max(1.0, float(np.max(np.abs(expect))))
-    gap = float(np.max(np.abs(zeta_hat - expect)))
-    if not gap <= 1e-9 * scale:
-        f.fail(f"inconsistent: zeta_hat does not follow from w_hat and tc by (39)-(40) "
-               f"(max difference {gap:.3g})")
-    common = _orbit_common(f)
-    lattice = f.lattice() if f.has("lattice.present") else None
-    if f.version == 0 and "lattice" in f.data and f.data["lattice"].size:
-        geometry_l, boundary, grid = (str(v) for v in f.data["lattice"])
-        lattice = Lattice(nodes, geometry_l, boundary, grid=grid)
-    if lattice is not None and (lattice.geometry != geometry or lattice.n_nodes != n
-                                or not np.array_equal(lattice.nodes, nodes)):
-        f.fail("inconsistent: the stored lattice does not have the solution's nodes and geometry")
-    sol = _class("PeriodicSolution")(
-        geometry=geometry, nodes=nodes, tc=tc, w_hat=w_hat, zeta_hat=zeta_hat, zeta_shift=zeta_shift,
-        Gamma=fl.Gamma, e=f.float("e"), t0=fl.t0, M=M, N=N, period=T, flat=fl,
-        min_shift=f.bool("min_shift"), scheme=f.str("scheme"), tail_correction=tail,
-        spacing=float(np.min(np.diff(nodes))) if n > 1 else float("inf"), lattice=lattice, **common)
-    from tps_solver.solvers.tps.checks import physical_checks
+def read_arrays(path):
+    """All arrays of the archive at ``path`` (seal checked if present); ValueError saying what is wrong.
 
-    sol.checks = physical_checks(sol)
-    return sol
+    Internal: returns the arrays and, as ``"\\x00sealed"``, whether the file was sealed.
 
-
-def _decode_lattice_cycle(f):
-    fl = f.flat()
-    branch = f.str("branch", ("stable", "unstable"))
-    if branch != fl.branch:
-        f.fail(f"inconsistent: branch = {branch!r} but the flat layer launched at t0 = {fl.t0!r} is {fl.branch!r}")
-    lattice = f.lattice()
-    if lattice is None or lattice.boundary != "neumann":
-        f.fail("a lattice cycle needs its lattice, with Neumann ends")
-    n = lattice.n_nodes
-    tc = f.array("tc", "f", shape=(n,), finite=True)
-    if np.any(tc < 0) or np.any(tc >= fl.period):
-        f.fail(f"the field 'tc' must lie in [0, T) with T = 2 pi M = {fl.period:.6g}")
-    common = _orbit_common(f)
-    module = importlib.import_module(KINDS["LatticeCycle"])
-    problem = module.CycleProblem(lattice, fl, common["coupling"])
-    cyc = module.LatticeCycle(
-        tc=tc, nodes=np.array(lattice.nodes, dtype=float), geometry=lattice.geometry, lattice=lattice, flat=fl,
-        Gamma=fl.Gamma, e=f.float("e"), M=fl.M, t0=fl.t0, period=fl.period, J=problem.J, **common)
-    cyc.eigenvalues, cyc.modes, cyc.modes_inv = problem.lam, problem.V, problem.Vinv
-    cyc.zeta_offset = np.zeros(n)
-    cyc.zeta_offset = np.diag(cyc.height(tc)).copy()   # zeta(tc) = 0 at every node (40)
-    return cyc
-
-
-def _decode_stability(f):
-    lattice = f.lattice()
-    if lattice is None:
-        f.fail("a stability result needs its lattice")
-    periods = f.int("periods", minimum=2)
-    defects = f.array("defects", "f", shape=(None, 2))
-    if defects.shape[0] > periods:
-        f.fail(f"inconsistent: {defects.shape[0]} per-period defects for periods = {periods}")
-    history = f.array("growth_history", "f", ndim=1)
-    if history.size > periods + 1:
-        f.fail(f"inconsistent: {history.size} growth distances for periods = {periods}")
-    window = f.array("growth_window", "iu", shape=(2,))
-    multipliers = f.array("multipliers", "fc", ndim=1).astype(complex)
-    if np.any(np.diff(np.abs(multipliers)) > 1e-12 * max(1.0, float(np.max(np.abs(multipliers), initial=0)))):
-        f.fail("inconsistent: the multipliers are not sorted by decreasing modulus")
-    diff = f.int("differentiable")
-    if diff not in (-1, 0, 1):
-        f.fail(f"the field 'differentiable' must be -1 (not tested), 0 or 1, got {diff}")
-    growth = f.float("growth_factor", finite=False)
-    stable, success = f.bool("stable"), f.bool("success")
-    if stable and not (success and growth < 1.0):
-        f.fail(f"inconsistent: stable = True with growth factor {growth!r} and success = {success}")
-    cutoff = f.cutoff()
-    limited = f.bool("cutoff_limited")
-    if cutoff["kind"] == "lattice spacing" and not limited:
-        f.fail("inconsistent: point impacts (cut-off = lattice spacing) but cutoff_limited = False")
-    events = f.array("events_per_period", "iu", shape=(periods,))
-    return _class("StabilityResult")(
-        defects=defects, initial_defect=f.array("initial_defect", "f", shape=(2,)), growth_factor=growth,
-        growth_history=history, growth_window=tuple(int(v) for v in window), multipliers=multipliers,
-        multipliers_kind=f.str("multipliers_kind", ("full period map", "uniform mode", "none")),
-        uniform_multipliers=f.array("uniform_multipliers", "fc", ndim=1).astype(complex),
-        differentiable=None if diff == -1 else bool(diff), stable=stable, message=f.str("message"),
-        events_per_period=events.astype(np.int64),
-        sticking_nodes=f.array("sticking_nodes", "iu", ndim=1).astype(np.int64), cutoff=cutoff,
-        cutoff_limited=limited, lattice=lattice, method=f.str("method"), period=f.float("period"),
-        section_time=f.float("section_time"), periods=periods, success=success)
-
-
-def _decode_simulation(f):
-    lattice = f.lattice()
-    if lattice is None:
-        f.fail("a simulation result needs its lattice")
-    n = lattice.n_nodes
-    t_eval = f.array("t_eval", "f", ndim=1)
-    k = t_eval.size
-    from tps_solver.solvers.fda.events import EVENT_DTYPE
-
-    ev_t = f.array("events.t", "f", ndim=1)
-    m = ev_t.size
-    events = np.empty(m, dtype=EVENT_DTYPE)
-    events["t"] = ev_t
-    events["node"] = f.array("events.node", "iu", shape=(m,))
-    events["kind"] = f.array("events.kind", "U", shape=(m,))
-    events["w_before"] = f.array("events.w_before", "f", shape=(m,))
-    if m and (np.any(events["node"] < 0) or np.any(events["node"] >= n)):
-        f.fail(f"the field 'events.node' must hold node indices in [0, {n})")
-    if not set(np.unique(events["kind"])) <= {"impact", "stick", "liftoff"}:
-        f.fail("the field 'events.kind' must hold 'impact', 'stick' or 'liftoff'")
-    status = f.int("status")
-    success = f.bool("success")
-    if success != (status == 0):
-        f.fail(f"inconsistent: success = {success} but status = {status}")
-    return _class("SimulationResult")(
-        t=f.float("t"), w=f.array("w", "f", shape=(n,)), zeta=f.array("zeta", "f", shape=(n,)),
-        stuck=f.array("stuck", "b", shape=(n,)), events=events.view(np.recarray), n_events=m,
-        success=success, status=status, message=f.str("message"), t_eval=t_eval,
-        w_eval=f.array("w_eval", "f", shape=(k, n)), zeta_eval=f.array("zeta_eval", "f", shape=(k, n)),
-        cutoff=f.cutoff(), method=f.str("method"), n_steps=f.int("n_steps", minimum=0), lattice=lattice,
-        Gamma=f.float("Gamma"), e=f.float("e"))
-
-
-def _decode_secular_roots(f):
-    kappa = f.float("kappa")
-    if not kappa > 0:
-        f.fail(f"the field 'kappa' must be > 0, got {kappa}")
-    mode = f.str("mode", ("sinuous", "varicose"))
-    gamma = f.array("gamma", "fc", ndim=1, finite=True).astype(complex)
-    n = gamma.size
-    lam = f.array("lam", "f", shape=(n,), finite=True)
-    # lam = gamma^2 - 1 (computed without cancellation), sorted least damped first, all < 0
-    if not np.all(np.abs(lam - ((gamma ** 2).real - 1.0)) <= 1e-12 * (np.abs(gamma) ** 2 + 1)):
-        f.fail("inconsistent: lam is not gamma**2 - 1")
-    if np.any(lam >= 0) or np.any(np.diff(lam) >= 0):
-        f.fail("inconsistent: lam must be negative and strictly decreasing")
-    trivial = f.array("trivial", "fc", ndim=1).astype(complex)
-    return _class("SecularRoots")(
-        kappa=kappa, mode=mode, gamma=gamma, lam=lam, trivial=trivial,
-        trivial_is_eigenvalue=f.array("trivial_is_eigenvalue", "b", shape=(trivial.size,)),
-        n_enclosed=f.int("n_enclosed", minimum=0), complete=f.bool("complete"),
-        contour=tuple(float(v) for v in f.array("contour", "f", shape=(2,))),
-        error_bound=f.array("error_bound", "f", shape=(n,)), polished=f.array("polished", "b", shape=(n,)))
-
-
-_DECODERS = {"PeriodicSolution": _decode_periodic_solution, "LatticeCycle": _decode_lattice_cycle,
-             "StabilityResult": _decode_stability, "SimulationResult": _decode_simulation,
-             "SecularRoots": _decode_secular_roots}
-
-
-def _read_archive(path):
-    """All arrays of the archive at ``path``; ValueError saying what is wrong with the file."""
-    if os.path.getsize(path) == 0:
+    Examples
+    --------
+    >>> read_arrays(None)
+    Traceback (most recent call last):
+    ...
+    ValueError: path must be a file name (str or os.PathLike), got None
+    """
+    path = _fspath(path)
+    if os.path.isdir(path):
+        raise ValueError(f"{path} is a directory, not a tps_solver result file")
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    if not raw:
         raise ValueError(f"{path} cannot be read: the file is empty")
+    sealed = False
+    if len(raw) > _SEAL_LEN + 22 and raw[-_SEAL_LEN - 22:-_SEAL_LEN - 18] == b"PK\x05\x06":
+        tail = raw[-_SEAL_LEN:]
+        body = raw[:-_SEAL_LEN]
+        declared = int.from_bytes(raw[-_SEAL_LEN - 2:-_SEAL_LEN], "little")
+        if declared == _SEAL_LEN and tail.startswith(_SEAL):
+            if checksum(body) != tail:
+                raise ValueError(f"{path} cannot be read: its checksum does not match (the file is damaged: "
+                                 f"bytes were changed after it was written)")
+            sealed = True
+        elif tail.startswith(_SEAL[:8]) or declared == _SEAL_LEN:
+            raise ValueError(f"{path} cannot be read: its checksum seal is damaged")
     try:
-        with open(path, "rb") as fh:                 # np.load(path) leaks the handle on a bad zip
-            archive = np.load(fh, allow_pickle=False)
-            if not isinstance(archive, np.lib.npyio.NpzFile):
-                raise ValueError(f"{path} is a single .npy array, not a tps_solver result file (.npz)")
-            with archive:
-                return {k: archive[k] for k in archive.files}
+        archive = np.load(BytesIO(raw), allow_pickle=False)
+        if not isinstance(archive, np.lib.npyio.NpzFile):
+            raise ValueError(f"{path} is a single .npy array, not a tps_solver result file (.npz)")
+        with archive:
+            out = {k: archive[k] for k in archive.files}
     except zipfile.BadZipFile as exc:
         why = ("its data are damaged (CRC check failed)" if "CRC" in str(exc)
                else "it is not a complete .npz (zip) archive: truncated, damaged or another file type")
@@ -579,6 +508,8 @@ def _read_archive(path):
                          f"[{type(exc).__name__}: {exc}]") from None
     except ValueError as exc:
         text = str(exc)
+        if text.startswith(path):
+            raise
         if "pickle" in text and "Object arrays" in text:
             why = "it holds Python objects (pickled arrays), which are never loaded"
         elif "pickle" in text:
@@ -586,65 +517,165 @@ def _read_archive(path):
         else:
             why = text
         raise ValueError(f"{path} cannot be read: {why}") from None
-    except (OSError, KeyError, IndexError, TypeError, NotImplementedError) as exc:
-        if isinstance(exc, (FileNotFoundError, IsADirectoryError, PermissionError)):
-            raise
+    except (OSError, KeyError, IndexError, TypeError, NotImplementedError, RuntimeError, MemoryError) as exc:
         raise ValueError(f"{path} cannot be read: it is damaged or not an .npz archive "
                          f"[{type(exc).__name__}: {exc}]") from None
+    out["\x00sealed"] = sealed
+    return out
+
+
+class _Reader:
+    """Decodes the tree of one file against its arrays."""
+
+    def __init__(self, arrays, path, version):
+        self.arrays, self.path, self.version = arrays, path, version
+        self.used = set()
+
+    def fail(self, where, what):
+        raise ValueError(f"{self.path}: {what} (field {where!r}, format version {self.version})"
+                         if where else f"{self.path}: {what} (format version {self.version})")
+
+    def leaf(self, path, tag):
+        if path not in self.arrays:
+            self.fail(path, f"the field {path!r} is missing")
+        a = self.arrays[path]
+        self.used.add(path)
+        kinds = {"bool": "b", "int": "iu", "float": "f", "complex": "c", "str": "U"}
+        if tag in kinds:
+            if a.shape != () or a.dtype.kind not in kinds[tag]:
+                self.fail(path, f"the field {path!r} must be a scalar of kind {tag}, got dtype {a.dtype} "
+                                f"shape {a.shape}")
+            return {"bool": bool, "int": int, "float": float, "complex": complex, "str": str}[tag](a.item())
+        if tag == "scalar":
+            if a.shape != ():
+                self.fail(path, f"the field {path!r} must be a scalar, got shape {a.shape}")
+            return a[()]
+        if tag == "recarray":
+            if a.dtype.names is None:
+                self.fail(path, f"the field {path!r} must be a record array, got dtype {a.dtype}")
+            return a.view(np.recarray)
+        return a
+
+    def node(self, node, path):
+        if not isinstance(node, dict) or "t" not in node:
+            self.fail(path, "the structure entry 'tree' is malformed")
+        tag = node["t"]
+        if tag == "none":
+            return None
+        if tag in ("bool", "int", "float", "complex", "str", "scalar", "array", "recarray"):
+            return self.leaf(path, tag)
+        if tag in ("list", "tuple", "items"):
+            items = node.get("items")
+            if not isinstance(items, list):
+                self.fail(path, "the structure entry 'tree' is malformed")
+            values = [self.node(n, _join(path, i)) for i, n in enumerate(items)]
+            if tag == "list":
+                return values
+            if tag == "tuple":
+                return tuple(values)
+            if not all(isinstance(v, tuple) and len(v) == 2 for v in values):
+                self.fail(path, "the structure entry 'tree' is malformed")
+            try:
+                return dict(values)
+            except TypeError:
+                self.fail(path, "a dict key cannot be rebuilt")
+        if tag in ("dict", "bunch", "obj"):
+            fields = node.get("fields")
+            if not isinstance(fields, dict):
+                self.fail(path, "the structure entry 'tree' is malformed")
+            data = {k: self.node(n, _join(path, k)) for k, n in fields.items()}
+            if tag == "dict":
+                return data
+            if tag == "bunch":
+                return Bunch(data)
+            return self.build(node.get("kind"), data, path)
+        self.fail(path, f"unknown type {tag!r} in the structure entry 'tree'")
+
+    def build(self, kind, data, path):
+        codec = _registry().get(kind)
+        if codec is None:
+            self.fail(path, f"unknown kind of result {kind!r} (known: {', '.join(_registry())})")
+        f = Fields(data, self.path, kind, self.version, prefix=path)
+        if codec.validate is not None:
+            codec.validate(f)
+        if codec.decode is not None:
+            try:
+                obj = codec.decode(data)
+            except (ValueError, TypeError, KeyError) as exc:
+                f.fail(f"the stored {kind} cannot be rebuilt: {type(exc).__name__}: {exc}")
+        else:
+            obj = codec.cls.__new__(codec.cls)
+            dict.update(obj, data)
+        if codec.restore is not None:
+            codec.restore(obj)
+        return obj
 
 
 def load(path, kind=None):
-    """Read a result written by :func:`save` (or by a result's ``save`` method).
+    """Read an object written by :func:`save`, of a kind registered in this process.
+
+    Use :func:`tps_solver.load` (:func:`tps_solver.analyses.files.load`), which registers
+    every result type first.
 
     Parameters
     ----------
     path : str or os.PathLike
         The file, with or without its ``.npz`` ending.
     kind : str, optional
-        The result type expected (a key of :data:`KINDS`); another one is an error.
+        The kind expected; a file of another kind is an error.
 
     Returns
     -------
-    PeriodicSolution, LatticeCycle, StabilityResult, SimulationResult or SecularRoots
+    object
+        An instance of the registered class, every stored field bit for bit as saved.
 
     Raises
     ------
     FileNotFoundError
         If neither ``path`` nor ``path + ".npz"`` exists.
     ValueError
-        If the file cannot be read (truncated, damaged, pickled, not an ``.npz``), is not
-        a tps_solver file, has a newer format version (named), lacks or mistypes a field,
-        or is inconsistent (e.g. ``e`` does not belong to the stored ``t0``).
+        If ``path`` is not a file name, or a directory; if the file cannot be read
+        (truncated, damaged, seal broken, pickled, not an ``.npz``), is not a tps_solver
+        file, has a newer format version (named), holds an unknown or unexpected kind, or a
+        missing, mistyped, inconsistent or unphysical field.
 
     Examples
     --------
     >>> import os, tempfile
-    >>> from tps_solver import secular_roots
-    >>> roots = secular_roots(1.0, "sinuous", 3)
+    >>> from tps_solver.core.bunch import Bunch
+    >>> class Memo(Bunch):
+    ...     pass
+    >>> register("Memo", Memo)
     >>> with tempfile.TemporaryDirectory() as d:
-    ...     back = load(save(roots, os.path.join(d, "roots")), kind="SecularRoots")
-    ...     print(type(back).__name__, np.array_equal(back.gamma, roots.gamma), back.mode)
+    ...     back = load(save(Memo(v=0.1 + 0.2), os.path.join(d, "m")), kind="Memo")
+    ...     print(back.v == 0.1 + 0.2)
     ...     with open(os.path.join(d, "junk.npz"), "w") as f:
     ...         _ = f.write("not an archive")
     ...     try:
     ...         load(os.path.join(d, "junk"))
     ...     except ValueError as exc:
     ...         print(str(exc).split(": ", 1)[1])
-    SecularRoots True sinuous
+    True
     it is not an .npz archive (NumPy took it for pickled data)
+    >>> load(123)
+    Traceback (most recent call last):
+    ...
+    ValueError: path must be a file name (str or os.PathLike), got 123
     """
-    if kind is not None and kind not in KINDS:
-        raise ValueError(f"kind must be one of {', '.join(KINDS)} or None, got {kind!r}")
-    name = os.fspath(path)
+    name = _fspath(path)
+    if kind is not None and not isinstance(kind, str):
+        raise ValueError(f"kind must be a str (a registered kind) or None, got {kind!r}")
+    if os.path.isdir(name):
+        raise ValueError(f"{name} is a directory, not a tps_solver result file")
     candidates = [name] if name.endswith(".npz") else [name, name + ".npz"]
     found = next((c for c in candidates if os.path.isfile(c)), None)
     if found is None:
         raise FileNotFoundError(f"no such file: {' or '.join(candidates)}")
-    data = _read_archive(found)
+    data = read_arrays(found)
+    sealed = data.pop("\x00sealed")
     if "format" not in data:
-        if _V0_KEYS <= set(data):
-            file_kind, version = "PeriodicSolution", 0
-        else:
+        file_kind, version = "PeriodicSolution", 0        # written before files were versioned
+        if "w_hat" not in data or "tc" not in data:
             keys = ", ".join(sorted(data)[:8]) or "none"
             raise ValueError(f"{found} is not a tps_solver result file (no 'format' entry; its arrays: {keys})")
     else:
@@ -659,14 +690,29 @@ def load(path, kind=None):
         if version > FORMAT_VERSION or version < 0:
             raise ValueError(f"{found} has format version {version}; this tps_solver reads versions "
                              f"0 to {FORMAT_VERSION} (a newer tps_solver wrote it)")
-        if file_kind not in KINDS:
-            raise ValueError(f"{found} holds an unknown kind of result {file_kind!r} "
-                             f"(known: {', '.join(KINDS)})")
+    codec = _registry().get(file_kind)
+    if codec is None:
+        raise ValueError(f"{found} holds an unknown kind of result {file_kind!r} "
+                         f"(known: {', '.join(_registry())})")
     if kind is not None and file_kind != kind:
         raise ValueError(f"{found} holds a {file_kind}, not a {kind}")
-    fields = {k: v for k, v in data.items() if k not in _META}
-    result = _DECODERS[file_kind](_Fields(fields, found, file_kind, version))
-    for key, value in fields.items():
-        if key.startswith("extra."):
-            result[key[len("extra."):]] = value.item() if value.shape == () else np.array(value)
-    return result
+    if version < 2:
+        if codec.legacy is None:
+            raise ValueError(f"{found} has format version {version}, which this tps_solver reads for "
+                             f"PeriodicSolution files only; save the {file_kind} again")
+        fields = {k: v for k, v in data.items() if k not in _META}
+        return codec.legacy(Fields(fields, found, file_kind, version))
+    if not sealed:
+        raise ValueError(f"{found} cannot be read: its checksum seal is missing (the file is truncated or was "
+                         f"rewritten by another program)")
+    reader = _Reader(data, found, version)
+    try:
+        tree = json.loads(str(data["tree"]))
+    except (KeyError, ValueError, TypeError):
+        raise ValueError(f"{found}: the structure entry 'tree' is missing or damaged") from None
+    if not isinstance(tree, dict) or tree.get("t") != "obj":
+        raise ValueError(f"{found}: the structure entry 'tree' is malformed")
+    if tree.get("kind") != file_kind:
+        raise ValueError(f"{found}: inconsistent: the entry 'kind' says {file_kind!r} but the stored object is "
+                         f"a {tree.get('kind')!r}")
+    return reader.node(tree, "")

@@ -27,6 +27,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
+from tps_solver.core import archive
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.budget import check_cost, harmonics_cost
 from tps_solver.model.harmonics import flat_w_hat, height_from_velocity
@@ -292,6 +293,8 @@ class FlatLayer:
             raise ValueError("e or t0 must be given (e in [0, 1), or t0 with e from (19))")
         if e is not None:
             e = check_restitution(e, "e")
+        # the constructor inputs, so that a saved layer is rebuilt bit for bit (archive codec below)
+        self._inputs = {"Gamma": Gamma, "M": M, "e": e, "t0": t0, "branch": branch, "pattern": pattern}
         if pattern in ("stick", "touch"):
             if t0 is not None:
                 raise ValueError(f"t0 can only be given with pattern='bounce' or 'auto' (the {pattern!r} "
@@ -717,3 +720,19 @@ class FlatLayer:
                 raise ValueError("period doubling not found below Gamma = 1e6")
         high = brentq(pd, G, G * step, xtol=1e-14, rtol=1e-15)
         return low, high
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _encode_flat(layer):
+    return {"inputs": dict(layer._inputs), "e": layer.e, "t0": layer.t0}
+
+
+def _decode_flat(data):
+    layer = FlatLayer(**data["inputs"])
+    if layer.e != data["e"] or layer.t0 != data["t0"]:
+        raise ValueError(f"inconsistent: the stored layer has e = {data['e']!r}, t0 = {data['t0']!r}, its "
+                         f"inputs give e = {layer.e!r}, t0 = {layer.t0!r}")
+    return layer
+
+
+archive.register("FlatLayer", FlatLayer, encode=_encode_flat, decode=_decode_flat)

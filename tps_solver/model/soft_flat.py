@@ -36,6 +36,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
+from tps_solver.core import archive
 from tps_solver.core.checks import check_in_range, check_positive, check_real
 from tps_solver.model.flat import FlatLayer
 from tps_solver.model.flight import expm_companion, flight_map
@@ -129,6 +130,7 @@ class SoftFlatOrbit:
         self.Gamma, self.M, self.e = hard.Gamma, hard.M, hard.e
         self.tau_c, self.omega0_sq, self.beta = soft_contact_parameters(self.e, cutoff)
         self.cutoff = float(cutoff)
+        self.branch = branch
         T = hard.period
         if self.tau_c >= T:
             raise ValueError(f"cutoff must give a contact time cutoff**2 < T = {T:.6g}, got {cutoff!r}")
@@ -219,3 +221,15 @@ class SoftFlatOrbit:
         rho : ndarray of float, shape (k,)
         """
         return np.max(np.abs(np.linalg.eigvals(self.monodromy(lam))), axis=-1)
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _encode_soft(orbit):
+    return {"Gamma": orbit.Gamma, "M": orbit.M, "e": orbit.e, "cutoff": orbit.cutoff, "branch": orbit.branch}
+
+
+def _decode_soft(data):
+    return SoftFlatOrbit(data["Gamma"], data["M"], data["e"], data["cutoff"], data["branch"])
+
+
+archive.register("SoftFlatOrbit", SoftFlatOrbit, encode=_encode_soft, decode=_decode_soft)

@@ -31,6 +31,7 @@ paper's kink set-up ("pinning of the end points to flat-layer states").
 import numpy as np
 import scipy.linalg
 
+from tps_solver.core import archive
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive
 from tps_solver.core.budget import check_cost, lattice_cost
 
@@ -258,3 +259,21 @@ def lattice_eigenvalues(lattice):
     S = -lattice.flux / v[:, None] / v[None, :]
     lam = scipy.linalg.eigvalsh(0.5 * (S + S.T))
     return np.maximum(lam, 0.0)
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _encode_lattice(lat):
+    return {"nodes": lat.nodes, "geometry": lat.geometry, "boundary": lat.boundary, "grid": lat.grid,
+            "spacing": lat.spacing}
+
+
+def _decode_lattice(data):
+    lat = Lattice(data["nodes"], data["geometry"], data["boundary"], grid=data["grid"])
+    spacing = data["spacing"]
+    if not isinstance(spacing, float) or not abs(spacing - lat.spacing) <= 1e-9 * lat.spacing:
+        raise ValueError(f"inconsistent: the stored spacing {spacing!r} is not the node spacing {lat.spacing!r}")
+    lat.spacing = spacing          # the nominal spacing of Lattice.planar, free of node round-off
+    return lat
+
+
+archive.register("Lattice", Lattice, encode=_encode_lattice, decode=_decode_lattice)
