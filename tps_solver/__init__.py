@@ -48,7 +48,7 @@ _LAZY = {
     "PeriodicSolution": "solvers.tps",
     "PeriodicOrbit": "core.orbit",
     "STATUS": "core.orbit",
-    "load": "solvers.tps",
+    "load": "analyses.files",
     "Lattice": "operators.lattice",
     "simulate": "solvers.fda",
     "METHODS": "solvers.fda",

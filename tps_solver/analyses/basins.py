@@ -73,6 +73,7 @@ import math
 
 import numpy as np
 
+from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 
@@ -147,6 +148,23 @@ class BasinResult(Bunch):
 
 
 # ------------------------------------------------------------ the single ball
+
+    def save(self, path):
+        """Write the result to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.core.archive`); returns the path."""
+        return archive.save(self, path)
+
+
+def _validate_basins(f):
+    n = f.int("n_samples", minimum=1)
+    f.array("labels", "iu", shape=(n,))
+    f.array("initial_states", "f", shape=(n, 2), finite=True)
+    f.float("Gamma")
+    f.float("e")
+
+
+archive.register("BasinResult", BasinResult, validate=_validate_basins)
+
+
 def _sin_minus(d):
     """sin(d) - d, accurate for small |d|."""
     if abs(d) < 0.1:

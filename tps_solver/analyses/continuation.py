@@ -57,6 +57,7 @@ import time
 
 import numpy as np
 
+from tps_solver.core import archive
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real
 from tps_solver.core.bunch import Bunch
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
@@ -71,7 +72,6 @@ BRANCH_STATUS = {
     5: "interrupted (KeyboardInterrupt); the points so far are returned",
 }
 
-_FORMAT = ("tps_solver.Branch", 1)
 
 
 class Branch(Bunch):
@@ -122,21 +122,12 @@ class Branch(Bunch):
     """
 
     def save(self, path):
-        """Write the branch to ``path`` (``.npz`` appended if missing); returns the path written."""
-        path = str(path)
-        if not path.endswith(".npz"):
-            path += ".npz"
-        kinds = np.array([k for k, _ in self.special_points], dtype=str)
-        values = np.array([v for _, v in self.special_points], dtype=float)
-        np.savez_compressed(
-            path, format=np.array(_FORMAT[0]), format_version=np.array(_FORMAT[1]),
-            parameter=np.array(self.parameter), parameter_values=self.parameter_values,
-            states=self.states, stable=self.stable, multipliers=self.multipliers,
-            special_kinds=kinds, special_values=values, status=np.array(self.status),
-            message=np.array(self.message), problem=np.array(self.problem),
-            context_keys=np.array(list(self.context), dtype=str),
-            context_values=np.array([float(v) for v in self.context.values()]))
-        return path
+        """Write the branch to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.core.archive`); returns the path.
+
+        Every field is stored, ``special_points`` and ``special_details`` with whatever they
+        hold (records, nested solutions), by the archive's generic encoder.
+        """
+        return archive.save(self, path)
 
     def plot(self, path=None, ax=None):
         """Draw max|mu| against the parameter (points marked stable or unstable) with the special points.
@@ -199,34 +190,13 @@ def load_branch(path):
     ...     print(np.array_equal(back.states, br.states), back.special_points == br.special_points, back.context)
     True True {'Gamma': 2.5, 'e': 0.45, 'M': 2.0}
     """
-    import zipfile
+    from tps_solver.core.archive import load
 
-    path = str(path)
-    if not path.endswith(".npz") and not _exists(path):
-        path += ".npz"
     try:
-        with np.load(path, allow_pickle=False) as d:
-            data = {k: d[k] for k in d.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise ValueError(f"path {path!r} is not a readable .npz file: {exc}") from None
-    if str(data.get("format", "")) != _FORMAT[0]:
-        raise ValueError(f"path {path!r} is not a tps_solver branch file")
-    version = int(data["format_version"])
-    if version != _FORMAT[1]:
-        raise ValueError(f"branch file {path!r} has format version {version}; this version reads {_FORMAT[1]}")
-    context = dict(zip([str(k) for k in data["context_keys"]], [float(v) for v in data["context_values"]]))
-    return Branch(
-        parameter=str(data["parameter"]), parameter_values=data["parameter_values"], states=data["states"],
-        stable=data["stable"].astype(bool), multipliers=data["multipliers"],
-        special_points=[(str(k), float(v)) for k, v in zip(data["special_kinds"], data["special_values"])],
-        special_details=[], status=int(data["status"]), message=str(data["message"]),
-        success=int(data["status"]) in (0, 1), problem=str(data["problem"]), context=context, time=0.0)
+        return load(path, kind="Branch")
+    except ValueError as exc:
+        raise ValueError(f"path {str(path)!r} is not a tps_solver branch file (not readable as one): {exc}") from None
 
-
-def _exists(path):
-    import os
-
-    return os.path.exists(path)
 
 
 class _Refused(Exception):
@@ -771,3 +741,14 @@ def _locate(problem, kind, y0, tau0, h, f0, tol, tol_special, max_corrector):
         except _Refused:
             mu = np.array([], dtype=complex)
     return dict(kind=kind, value=float(y[-1]), state=y[:-1].copy(), multipliers=mu)
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _validate_branch(f):
+    k = f.array("parameter_values", "f", ndim=1, finite=True).size
+    f.array("stable", "b", shape=(k,))
+    f.str("parameter")
+    f.int("status")
+
+
+archive.register("Branch", Branch, validate=_validate_branch)

@@ -532,3 +532,19 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
         sticking_nodes=sticking, cutoff=cutoff, cutoff_limited=limited, lattice=lattice, method=method, period=T,
         section_time=t_s, periods=periods, success=bool(ref.success), grid_instability=grid,
         interrupted=bool(interrupted))
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _validate_stability(f):
+    f.instance("lattice", Lattice)
+    periods = f.int("periods", minimum=2)
+    f.array("defects", "f", shape=(None, 2))
+    f.array("multipliers", "c", ndim=1)
+    growth = f.float("growth_factor", finite=False)
+    stable, success = f.bool("stable"), f.bool("success")
+    if stable and not (success and growth < 1.0):
+        f.fail(f"inconsistent: stable = True with growth factor {growth!r} and success = {success}")
+    f.array("events_per_period", "iu", shape=(periods,))
+
+
+io.register("StabilityResult", StabilityResult, validate=_validate_stability)

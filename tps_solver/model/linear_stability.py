@@ -869,3 +869,17 @@ def chebyshev_eigenvalues(kappa, mode, n_cheb=40, n_refine=10, method="ultrasphe
         w[i] = _refine(A, B, w[i], vr[:, i], vl[:, i])
     order = np.argsort(-w.real, kind="stable")
     return w[order]
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _validate_roots(f):
+    if not f.float("kappa") > 0:
+        f.fail(f"the field 'kappa' must be > 0, got {f.float('kappa')}")
+    f.str("mode", ("sinuous", "varicose"))
+    gamma = f.array("gamma", "c", ndim=1, finite=True)
+    lam = f.array("lam", "f", shape=(gamma.size,), finite=True)
+    if not np.all(np.abs(lam - ((gamma ** 2).real - 1.0)) <= 1e-12 * (np.abs(gamma) ** 2 + 1)):
+        f.fail("inconsistent: lam is not gamma**2 - 1")
+
+
+io.register("SecularRoots", SecularRoots, validate=_validate_roots)

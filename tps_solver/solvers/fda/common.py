@@ -114,3 +114,30 @@ def stack_samples(samples, n):
         return np.empty(0), np.empty((0, n)), np.empty((0, n))
     return (np.array([s[0] for s in samples]), np.array([s[1] for s in samples]),
             np.array([s[2] for s in samples]))
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _validate_simulation(f):
+    from tps_solver.operators.lattice import Lattice
+
+    n = f.instance("lattice", Lattice).n_nodes
+    f.float("t")
+    f.array("w", "f", shape=(n,), finite=True)
+    f.array("zeta", "f", shape=(n,), finite=True)
+    f.array("stuck", "b", shape=(n,))
+    k = f.array("t_eval", "f", ndim=1, finite=True).size
+    f.array("w_eval", "f", shape=(k, n))
+    f.array("zeta_eval", "f", shape=(k, n))
+    status = f.int("status")
+    if status not in SIMULATION_STATUS:
+        f.fail(f"the field 'status' must be a code of SIMULATION_STATUS, got {status}")
+    if f.bool("success") != (status == 0):
+        f.fail(f"inconsistent: success = {f.bool('success')} but status = {status}")
+    events = f.get("events")
+    if not isinstance(events, np.recarray) or set(events.dtype.names or ()) < {"t", "node", "kind"}:
+        f.fail("the field 'events' must be a record array with fields t, node, kind")
+    if events.size and (np.any(events.node < 0) or np.any(events.node >= n)):
+        f.fail(f"the field 'events' must hold node indices in [0, {n})")
+
+
+io.register("SimulationResult", SimulationResult, validate=_validate_simulation)

@@ -63,6 +63,7 @@ import time
 
 import numpy as np
 
+from tps_solver.core import archive
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
@@ -184,6 +185,10 @@ class ShootingOrbit(PeriodicOrbit):
                        t_eval=self.t_start + phases, **kw)
         where = where.reshape(-1)
         return run.w_eval[where], run.zeta_eval[where]
+
+    def save(self, path):
+        """Write the orbit to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.core.archive`); returns the path."""
+        return archive.save(self, path)
 
     def velocity(self, t):
         """Node velocities on the orbit at times ``t`` (by time stepping from ``t_start``).
@@ -911,3 +916,19 @@ def _growth(pm, x, periods, size=1e-8, saturation=1e-3, seed=0):
     dist = np.maximum(np.max(np.abs(per.zeta_eval[:k] - ref.zeta_eval[:k]), axis=1),
                       np.max(np.abs(per.w_eval[:k] - ref.w_eval[:k]), axis=1))
     return _fit_growth(dist, saturation)
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _validate_orbit(f):
+    from tps_solver.operators.lattice import Lattice
+
+    n = f.instance("lattice", Lattice).n_nodes
+    f.status(STATUS)
+    f.array("w0", "f", shape=(n,), finite=True)
+    f.array("zeta0", "f", shape=(n,), finite=True)
+    f.array("stuck0", "b", shape=(n,))
+    f.float("t_start")
+    f.float("period")
+
+
+archive.register("ShootingOrbit", ShootingOrbit, validate=_validate_orbit)

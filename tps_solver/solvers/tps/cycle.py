@@ -341,3 +341,24 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
     cyc.zeta_offset = np.zeros(x.size)
     cyc.zeta_offset = np.diag(cyc._height_raw(tc))
     return cyc
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _validate_cycle(f):
+    from tps_solver.model.flat import FlatLayer
+    from tps_solver.core.orbit import STATUS
+
+    fl = f.instance("flat", FlatLayer)
+    e = f.float("e")
+    if e != fl.e:
+        f.fail(f"inconsistent: the stored e = {e!r} but the flat layer has e = {fl.e:.15g} by (19)")
+    lattice = f.instance("lattice", Lattice)
+    n = lattice.n_nodes
+    tc = f.array("tc", "f", shape=(n,), finite=True)
+    if np.any(tc < 0) or np.any(tc >= fl.period):
+        f.fail(f"the field 'tc' must lie in [0, T) with T = 2 pi M = {fl.period:.6g}")
+    f.array("modes", "f", shape=(n, n), finite=True)
+    f.status(STATUS)
+
+
+io.register("LatticeCycle", LatticeCycle, validate=_validate_cycle)

@@ -89,6 +89,7 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss, legvander
 from scipy.linalg import lu_factor, lu_solve
 
+from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
 from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_orbit
@@ -147,6 +148,10 @@ class StickSolution(Bunch):
     >>> bool(abs(sol.velocity([sol.liftoff_times[0, 1] - 0.1])[0, 0]) < 1e-12)   # stuck: w = 0
     True
     """
+
+    def save(self, path):
+        """Write the solution to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.core.archive`); returns the path."""
+        return archive.save(self, path)
 
     def velocity(self, t):
         """Velocity w(t) at the nodes (post-impact value at an impact instant).
@@ -607,3 +612,21 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     return sol
 
 
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _validate_stick(f):
+    f.int("status")
+    f.bool("converged")
+    n = f.array("nodes", "f", ndim=1, finite=True).size
+    f.array("contact_times", "f", shape=(n, None))
+    f.array("w_hat", "c", shape=(None, n), finite=True)
+
+
+def _restore_stick(sol):
+    if "exact" in sol:
+        sol._flat_state = flat_functions(sol.exact)
+
+
+archive.register("StickSolution", StickSolution, transient=("_flat_state",), validate=_validate_stick,
+                 restore=_restore_stick)

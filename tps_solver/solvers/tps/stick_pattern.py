@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
 from tps_solver.solvers.shooting.periodic import ShootingOrbit
@@ -368,3 +369,6 @@ def check_with_fda(sol, periods=1, t_start=None):
     return Bunch(contact_error=c_err, liftoff_error=l_err, events_per_period=counts, run=run,
                  t_start=t_start)
 
+
+
+archive.register("StickPattern", StickPattern)      # file codec: every field by the generic encoder

@@ -13,6 +13,7 @@ from numpy.polynomial.legendre import leggauss, legvander
 from scipy.optimize import brentq
 from scipy.linalg import eigh
 
+from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
 
@@ -153,6 +154,7 @@ class Modal:
     """
 
     def __init__(self, lattice, period, coupling=1.0):
+        self.inputs = {"lattice": lattice, "period": period, "coupling": coupling}   # for the file codec
         D = np.asarray(lattice.volumes, dtype=float)
         S = np.asarray(lattice.flux, dtype=float)
         sq = np.sqrt(D)
@@ -198,6 +200,8 @@ class StickProblem:
     """
 
     def __init__(self, modal, pattern, Gamma, e, n_basis, n_quad):
+        self.inputs = {"modal": modal, "pattern": pattern, "Gamma": Gamma, "e": e, "n_basis": n_basis,
+                       "n_quad": n_quad}                                  # for the file codec
         self.m = modal
         self.p = pattern
         self.Gamma, self.e = Gamma, e
@@ -645,3 +649,8 @@ def flat_functions(orb):
     return w, z
 
 
+
+
+# ------------------------------------------------------------------ file codecs (tps_solver.core.archive)
+archive.register("Modal", Modal, encode=lambda m: dict(m.inputs), decode=lambda d: Modal(**d))
+archive.register("StickProblem", StickProblem, encode=lambda p: dict(p.inputs), decode=lambda d: StickProblem(**d))
