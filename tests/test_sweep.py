@@ -1,6 +1,5 @@
 """tps_solver.sweep: executors give bit-identical results, the store resumes, bad input is refused."""
 import multiprocessing
-import pickle
 import uuid
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
@@ -8,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tps_solver.analyses.files import load as tps_load
 from tps_solver.analyses.sweep import SweepInterrupted, load_store, param_key, param_range, sweep
 
 
@@ -75,7 +75,7 @@ def test_process_pool_bit_identical_and_resumable_after_interrupt(tmp_path):
         _assert_identical(sweep(flat_task, GRID, executor=ex, progress=False), ref)
         with pytest.raises(SweepInterrupted) as info:
             sweep(counting_task, params, executor=ex, store=store, callback=stop, progress=False)
-        assert int(info.value.finished.sum()) == 3 == len(list(store.glob("*.pkl")))
+        assert int(info.value.finished.sum()) == 3 == len(list(store.glob("*.npz")))
     # leaving the block waited for the calls already queued in the workers (they cannot be cancelled)
     (log / "gen").write_text("2")                  # calls of the rerun are tagged 2
     res = sweep(counting_task, params, store=store, max_workers=1, progress=False)    # the default pool
@@ -113,7 +113,7 @@ def test_rerun_after_a_task_failure_computes_only_the_missing_points(tmp_path):
         sweep(counting_task, params, executor="serial", store=store, progress=False)
     assert any("3 of 6 finished points kept" in note for note in info.value.__notes__)
     assert _calls(log) == [1, 2, 3, 4]
-    assert len(list(store.glob("*.pkl"))) == 3
+    assert len(list(store.glob("*.npz"))) == 3
     res = sweep(counting_task, params, executor="serial", store=store, progress=False)
     assert res == [1, 4, 9, 16, 25, 36]
     assert _calls(log) == [1, 2, 3, 4, 4, 5, 6]          # the rerun called the task for 4, 5, 6 only
@@ -149,13 +149,14 @@ def test_keyboard_interrupt_keeps_finished_points_and_rerun_finishes(tmp_path):
     assert [s[0] for s in seen] == [3, 4, 5, 6]            # done counts the stored points too
 
 
-def test_store_files_are_complete_pickles_keyed_by_params(tmp_path):
+def test_store_files_are_complete_archives_keyed_by_params(tmp_path):
     store = tmp_path / "s"
     sweep(flat_task, {"Gamma": [2.5], "e": [0.45]}, executor="serial", store=store, progress=False)
     files = sorted(p.name for p in store.iterdir())
     key = param_key({"Gamma": 2.5, "e": 0.45})
-    assert files == [f"{key}.pkl", "sweep.json"]            # no temporary files left
-    rec = pickle.loads((store / f"{key}.pkl").read_bytes())
+    assert files == [f"{key}.npz", "sweep.json"]            # no temporary files left
+    rec = tps_load(store / f"{key}.npz", kind="StorePoint")
+    assert rec.key == key
     assert rec["params"] == {"Gamma": 2.5, "e": 0.45}
     assert rec["result"].tobytes() == flat_task(2.5, 0.45).tobytes()
     assert load_store(store)[0][0] == {"Gamma": 2.5, "e": 0.45}
@@ -227,3 +228,23 @@ def test_param_range():
         param_range(2.7, 2.3, 0.1, "Gamma")
     with pytest.raises(ValueError, match="Gamma: start must be a finite real number"):
         param_range(float("inf"), 2.3, 0.1, "Gamma")
+
+
+def test_damaged_or_misplaced_point_files_are_recomputed(tmp_path):
+    log, store = tmp_path / "log", tmp_path / "store"
+    log.mkdir()
+    params = {"x": [0, 1, 2, 3], "log_dir": [str(log)]}
+    first = sweep(counting_task, params, executor="serial", store=store, progress=False)
+    keys = [param_key({"x": x, "log_dir": str(log)}) for x in range(4)]
+    raw = (store / f"{keys[0]}.npz").read_bytes()
+    (store / f"{keys[0]}.npz").write_bytes(raw[: len(raw) // 2])                 # truncated
+    flipped = bytearray((store / f"{keys[1]}.npz").read_bytes())
+    flipped[len(flipped) // 3] ^= 0x04
+    (store / f"{keys[1]}.npz").write_bytes(bytes(flipped))                      # a flipped byte
+    (store / f"{keys[2]}.npz").write_bytes((store / f"{keys[3]}.npz").read_bytes())   # copied over
+    with pytest.raises(ValueError, match="cannot be read|holds the point"):
+        load_store(store)
+    again = sweep(counting_task, params, executor="serial", store=store, progress=False)
+    assert again == first == [0, 1, 4, 9]
+    assert _calls(log, gen=None).count(3) == 1 and sorted(_calls(log)) == [0, 0, 1, 1, 2, 2, 3]
+    assert sorted(r for _, r in load_store(store)) == [0, 1, 4, 9]

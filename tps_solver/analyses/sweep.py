@@ -11,14 +11,18 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   results travel by pickle, so the task must be a module-level function (or
   another picklable callable) of keyword arguments.
 * **Store.**  ``store=path`` is a directory holding one small file per finished
-  point, ``<key>.pkl`` with ``{"params": p, "result": r}``, where ``key`` is a
+  point, ``<key>.npz``, a result file of :mod:`tps_solver.core.archive` (sealed by a SHA-256,
+  no pickles) holding the point's ``key``, ``params`` and ``result`` (a result of the package
+  by its codec; numbers, strings, arrays, lists, tuples and dicts of them by the generic
+  encoder; anything else cannot be stored and is an error), where ``key`` is a
   SHA-256 of a canonical encoding of ``p`` (floats by their exact hex form,
   arrays by dtype, shape and bytes).  Files are written atomically (a
   temporary file in the same directory, then :func:`os.replace`) by the calling
   process as results arrive, so an interrupted sweep leaves only complete
   points behind and a rerun computes only the missing ones.  ``sweep.json``
-  records the task's name; a store written by another task is refused.  The
-  files are pickles: load only stores you wrote.
+  records the task's name; a store written by another task is refused.  A damaged
+  point file, or one copied over another point's (its stored key differs), is reported
+  on the ``tps_solver.sweep`` logger and the point is computed again.
 * **Progress.**  A tqdm bar when tqdm is installed (``pip install
   tps-solver[progress]``), otherwise log records on the ``tps_solver.sweep``
   logger; ``callback(done, total, params, result)`` is called in this process
@@ -56,13 +60,23 @@ from pathlib import Path
 
 import numpy as np
 
+from tps_solver.core import archive
+from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
+from tps_solver.analyses import files
 
 __all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted"]
 
 _LOG = logging.getLogger("tps_solver.sweep")
 _MANIFEST = "sweep.json"
-_STORE_FORMAT = 1
+_STORE_FORMAT = 2
+
+
+class StorePoint(Bunch):
+    """One finished point of a sweep store: ``key``, ``params``, ``result`` (internal)."""
+
+
+archive.register("StorePoint", StorePoint)
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -294,14 +308,17 @@ def _atomic_write(directory, filename, data):
 
 
 def _read_point(path, key):
+    name = path / f"{key}.npz"
+    if not name.exists():
+        return False, None
     try:
-        with open(path / f"{key}.pkl", "rb") as fh:
-            return True, pickle.load(fh)["result"]
-    except FileNotFoundError:
+        rec = files.load(name, kind="StorePoint")
+        if rec.key != key:
+            raise ValueError(f"{name} holds the point {rec.key}, not {key} (a file copied over another)")
+    except ValueError as exc:     # a damaged or misplaced file: report it and recompute the point
+        _LOG.warning("store file %s.npz refused (%s); recomputing the point", key, exc)
         return False, None
-    except Exception as exc:     # a damaged file: recompute the point
-        _LOG.info("store file %s.pkl unreadable (%s); recomputing", key, exc)
-        return False, None
+    return True, rec.result
 
 
 def load_store(store):
@@ -335,10 +352,12 @@ def load_store(store):
     if not (path / _MANIFEST).exists():
         raise ValueError(f"store must be a directory written by sweep(), got {str(store)!r}")
     out = []
-    for f in sorted(path.glob("*.pkl")):
-        with open(f, "rb") as fh:
-            rec = pickle.load(fh)
-        out.append((rec["params"], rec["result"]))
+    for f in sorted(path.glob("*.npz")):
+        rec = files.load(f, kind="StorePoint")
+        if f.name != f"{rec.key}.npz":
+            raise ValueError(f"{f} holds the point {rec.key} (a file copied over another); rerun sweep() "
+                             f"to compute it again")
+        out.append((rec.params, rec.result))
     return out
 
 
@@ -532,7 +551,7 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
     def record(k, value):
         idx = positions[k]
         if path is not None:
-            _atomic_write(path, f"{k}.pkl", pickle.dumps({"params": points[idx[0]], "result": value}))
+            archive.save(StorePoint(key=k, params=points[idx[0]], result=value), path / f"{k}.npz")
         for i in idx:
             results[i] = value
         finished[idx] = True
