@@ -123,7 +123,7 @@ def test_reference_case_is_multistable_with_reproducible_fractions():
 
 def test_store_resume_gives_the_same_result(tmp_path):
     first = flat_basins(4.1, 0.1, n_samples=6, seed=2, periods=40, store=tmp_path / "b")
-    assert len(list((tmp_path / "b").glob("*.pkl"))) == 6
+    assert len(list((tmp_path / "b").glob("*.npz"))) == 6
     again = flat_basins(4.1, 0.1, n_samples=6, seed=2, periods=40, store=tmp_path / "b")
     assert again.labels.tolist() == first.labels.tolist()
     np.testing.assert_array_equal(again.attractors[0].points, first.attractors[0].points)

@@ -63,7 +63,6 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
-from tps_solver.analyses import files
 
 __all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted"]
 
@@ -307,12 +306,24 @@ def _atomic_write(directory, filename, data):
         raise
 
 
+def _load_point(name):
+    # the codecs of the result types stored are those of the modules imported in this process
+    # (tps_solver.analyses.files imports them all; it cannot be imported here: basins uses sweep)
+    try:
+        return archive.load(name, kind="StorePoint")
+    except ValueError as exc:
+        if "unknown kind of result" in str(exc):
+            raise ValueError(f"{exc}; import tps_solver.analyses.files (or the module of that result type) "
+                             f"before reading the store") from None
+        raise
+
+
 def _read_point(path, key):
     name = path / f"{key}.npz"
     if not name.exists():
         return False, None
     try:
-        rec = files.load(name, kind="StorePoint")
+        rec = _load_point(name)
         if rec.key != key:
             raise ValueError(f"{name} holds the point {rec.key}, not {key} (a file copied over another)")
     except ValueError as exc:     # a damaged or misplaced file: report it and recompute the point
@@ -353,7 +364,7 @@ def load_store(store):
         raise ValueError(f"store must be a directory written by sweep(), got {str(store)!r}")
     out = []
     for f in sorted(path.glob("*.npz")):
-        rec = files.load(f, kind="StorePoint")
+        rec = _load_point(f)
         if f.name != f"{rec.key}.npz":
             raise ValueError(f"{f} holds the point {rec.key} (a file copied over another); rerun sweep() "
                              f"to compute it again")
