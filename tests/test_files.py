@@ -289,8 +289,8 @@ def test_every_result_type_is_bit_identical_after_save_and_load(results, kind, t
     res = results[kind]
     back = load(res.save(tmp_path / "r"))
     _identical(res, back, kind)
-    if kind in ("PeriodicSolution", "Oscillon", "LatticeCycle", "StickSolution"):
-        t = np.linspace(0.0, res.period, 9)
+    if kind in ("PeriodicSolution", "Oscillon", "LatticeCycle", "StickSolution", "ShootingOrbit"):
+        t = res.get("t_start", 0.0) + np.linspace(0.0, res.period, 9)
         assert back.height(t).tobytes() == res.height(t).tobytes()
         assert back.velocity(t).tobytes() == res.velocity(t).tobytes()
 
