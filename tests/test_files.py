@@ -345,3 +345,11 @@ def test_the_archive_imports_no_result_module():
     names = [n.module for n in ast.walk(ast.parse(source)) if isinstance(n, ast.ImportFrom)]
     assert all(m == "tps_solver.core.bunch" for m in names if m and m.startswith("tps_solver")), names
     assert "importlib" not in source
+
+
+def test_branch_keeps_its_special_points_details_and_time(tmp_path):
+    br = tps.continue_branch(FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 2.7))
+    assert [k for k, _ in br.special_points] == ["period_doubling"] and br.special_details
+    back = tps.load_branch(br.save(tmp_path / "b"))
+    _identical(br, back, "Branch")
+    assert back.time == br.time and back.special_details[0]["value"] == br.special_points[0][1]
