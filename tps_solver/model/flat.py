@@ -28,7 +28,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real, check_restitution
-from tps_solver.core.budget import check_cost, harmonics_cost
+from tps_solver.core.costs import check_cost, harmonics_cost
 from tps_solver.model.harmonics import flat_w_hat, height_from_velocity
 from tps_solver.model.sticking import sticking_orbit, touch_orbits
 

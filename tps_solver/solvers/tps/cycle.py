@@ -38,7 +38,7 @@ from scipy.linalg import eigh
 from tps_solver.core import archive as io
 from tps_solver.core import defaults
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
-from tps_solver.core.budget import blas_threads, check_cost, cycle_cost, small_dense
+from tps_solver.core.costs import blas_threads, check_cost, cycle_cost, small_dense
 from tps_solver.model.flight import phi1, taylor_tail
 from tps_solver.operators.lattice import Lattice
 from tps_solver.core.orbit import PeriodicOrbit
@@ -281,8 +281,8 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
     Notes
     -----
     The work is O(n_nodes^3) per Newton step; the cost is estimated first and a lattice
-    out of reach raises ``ValueError`` (:mod:`tps_solver.core.budget`).  The small dense
-    kernels run on one BLAS thread (:func:`tps_solver.core.budget.blas_threads`).
+    out of reach raises ``ValueError`` (:mod:`tps_solver.core.costs`).  The small dense
+    kernels run on one BLAS thread (:func:`tps_solver.core.costs.blas_threads`).
 
     Examples
     --------
