@@ -1,8 +1,9 @@
 r"""The impact-and-stick TPS problem: the all-orders lattice kernel and the residual of a contact pattern.
 
 The formulation is the one of :mod:`tps_solver.solvers.tps.stick` (which solves it):
-:class:`Modal` is the eigen-decomposition of the Neumann lattice operator with the
-all-orders kernels :func:`H`, :func:`H_int`; :class:`StickProblem` evaluates the
+The eigen-decomposition of the Neumann lattice operator and the all-orders kernels are
+:class:`~tps_solver.operators.modal.ModalBasis`, :func:`~tps_solver.operators.modal.kernel`
+and :func:`~tps_solver.operators.modal.kernel_integral`; :class:`StickProblem` evaluates the
 residual and Jacobian of the unknowns of a :class:`~tps_solver.solvers.tps.stick_pattern.StickPattern`.
 :func:`flat_stick_orbit` is the completely inelastic flat layer in closed form.
 """
@@ -11,15 +12,14 @@ import math
 import numpy as np
 from numpy.polynomial.legendre import leggauss, legvander
 from scipy.optimize import brentq
-from scipy.linalg import eigh
 
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
+from tps_solver.operators.modal import kernel, kernel_integral
 
 __all__ = ["flat_stick_orbit"]
 
 KINDS = ("bounce", "stick")
-_ZERO_MODE = 1e-10          # |lambda T| below this: the zero mode's closed form
 _COLLAPSE = 1e-10           # stick intervals shorter than this: an impact with w+ = 0
 _BREAK_MARGIN = 1e-12      # neighbour events closer than this to an end do not cut a segment
 _MEDIUM = 1e-6              # segments shorter than this: at most 2 reaction terms (was 1e-3: too coarse at dx = 0.5)
@@ -125,62 +125,6 @@ def flat_stick_orbit(Gamma, M=2):
         t_start = tau
     return Bunch(t_liftoff=tL, t=np.array(ts), kind=np.array(kinds), w_minus=np.array(wm),
                  tau=np.array(taus), period=T, Gamma=Gamma, M=M)
-
-
-# ------------------------------------------------------------------ kernels
-def H(lam, tau, T):
-    """Mean-free periodic response of y' = lam y + delta_T - 1/T (all Fourier orders)."""
-    z = lam * T
-    small = np.abs(z) < _ZERO_MODE
-    zs = np.where(small, -1.0, z)
-    full = np.exp(np.where(small, 0.0, lam) * tau) / (-np.expm1(zs)) + 1.0 / zs
-    return np.where(small, 0.5 - tau / T, full)
-
-
-def H_int(lam, tau, T):
-    """An antiderivative of H in tau, periodic (continuous at tau = 0, T)."""
-    small = np.abs(lam * T) < _ZERO_MODE
-    ls = np.where(small, 1.0, lam)
-    full = (H(lam, tau, T) - 0.5 + tau / T) / ls
-    return np.where(small, tau / 2 - tau * tau / (2 * T), full)
-
-
-class Modal:
-    """Eigen-decomposition A = V diag(lam) V^-1 of a Neumann lattice operator, and the kernels.
-
-    Both kernels are ``K_p(tau) = A_p e^{lam_p tau} + B_p + C_p tau + D_p tau^2`` per mode:
-    :func:`H` (``W=False``) and its periodic antiderivative :func:`H_int` (``W=True``).
-    """
-
-    def __init__(self, lattice, period, coupling=1.0):
-        D = np.asarray(lattice.volumes, dtype=float)
-        S = np.asarray(lattice.flux, dtype=float)
-        sq = np.sqrt(D)
-        lam, U = eigh(S / np.outer(sq, sq))
-        self.lam = coupling * np.minimum(lam, 0.0)
-        self.V = U / sq[:, None]
-        self.Vinv = U.T * sq[None, :]
-        self.A = coupling * np.asarray(lattice.operator, dtype=float)
-        self.n = D.size
-        T = float(period)
-        lam = self.lam
-        zero = np.abs(lam * T) < _ZERO_MODE
-        ls = np.where(zero, -1.0, lam)
-        alpha = np.where(zero, 0.0, 1.0 / (-np.expm1(ls * T)))
-        beta = np.where(zero, 0.5, 1.0 / (ls * T))
-        self._tables = {
-            False: (alpha, beta, np.where(zero, -1.0 / T, 0.0), np.zeros_like(lam)),
-            True: (np.where(zero, 0.0, alpha / ls), np.where(zero, 0.0, (beta - 0.5) / ls),
-                   np.where(zero, 0.5, 1.0 / (ls * T)), np.where(zero, -0.5 / T, 0.0)),
-        }
-        self._poly = {W: tuple(self.V @ (k[:, None] * self.Vinv) for k in tab[1:])
-                      for W, tab in self._tables.items()}
-
-    def table(self, W):
-        return self._tables[bool(W)]
-
-    def poly(self, W):
-        return self._poly[bool(W)]
 
 
 # ------------------------------------------------------------------ patterns
@@ -368,12 +312,12 @@ class StickProblem:
             r = np.nonzero(req_W == W)[0]
             if r.size == 0:
                 continue
-            kA = md.table(W)[0]
+            kA = md.separable_table(W)[0]
             j = req_node[r]
             ex = np.exp(md.lam[None, None, :] * tau[r][:, :, None])        # (E, X, P)
             VA = md.V[j] * (kA * (md.lam if deriv else 1.0))[None, :]
             core = np.einsum("ep,exp,px->ex", VA, ex, md.Vinv[:, i])
-            MB, MC, MD = md.poly(W)
+            MB, MC, MD = md.separable_poly(W)
             tr = tau[r]
             if deriv:
                 out[r] = core + MC[j][:, i] + 2 * MD[j][:, i] * tr
@@ -428,12 +372,12 @@ class StickProblem:
             r = np.nonzero(req_W == W)[0]
             if r.size == 0:
                 continue
-            kA = md.table(W)[0]
+            kA = md.separable_table(W)[0]
             Gx = np.einsum("xq,xqp,xqm->xmp", wts, ex_u, Fv) * (kA[None, :] * md.Vinv[:, i].T)[:, None, :]
             j = req_node[r]
             ed = np.exp(md.lam[None, None, :] * dd[r][:, :, None])
             val = np.einsum("ep,exp,xmp->exm", md.V[j], ed, Gx)
-            MB, MC, MD = md.poly(W)
+            MB, MC, MD = md.separable_poly(W)
             mb, mc, mdd = MB[j][:, i][..., None], MC[j][:, i][..., None], MD[j][:, i][..., None]
             dr = dd[r][..., None]
             val += (mb * mu[0][None] + mc * (dr * mu[0][None] + mu[1][None])
@@ -457,11 +401,13 @@ class StickProblem:
                 m = req_W[er] == W
                 if not np.any(m):
                     continue
-                kA, kB, kC, kD = md.table(W)
-                ex = np.exp(md.lam[None, None, :] * tau[m][:, :, None])
+                lt = (md.lam[None, None, :], tau[m][:, :, None], T)
+                if W:   # the separable tables' antiderivative: zero-mean except the zero mode's (+T/12)
+                    K = kernel_integral(*lt) + np.where(md.zero_modes(), T / 12.0, 0.0)
+                else:
+                    K = kernel(*lt, at_jump="right")
                 coefp = md.V[jn[m]] * md.Vinv[:, inode[m]].T
-                tm = tau[m][..., None]
-                Rk[m] = np.einsum("np,nqp->nq", coefp, kA * ex + kB + kC * tm + kD * tm * tm)
+                Rk[m] = np.einsum("np,nqp->nq", coefp, K)
             out[er, xr] = np.einsum("nq,nq,nqm->nm", Rk, wsq, Fq)
         return out
 
