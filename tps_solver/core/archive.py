@@ -529,7 +529,7 @@ def _decode_simulation(f):
         success=success, status=status, message=f.str("message"), t_eval=t_eval,
         w_eval=f.array("w_eval", "f", shape=(k, n)), zeta_eval=f.array("zeta_eval", "f", shape=(k, n)),
         cutoff=f.cutoff(), method=f.str("method"), n_steps=f.int("n_steps", minimum=0), lattice=lattice,
-        Gamma=f.float("Gamma"), e=f.float("e"))
+        Gamma=f.float("Gamma"), e=f.float("e"), segments=None)
 
 
 def _decode_secular_roots(f):

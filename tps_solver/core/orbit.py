@@ -29,6 +29,7 @@ code  meaning
 import numpy as np
 
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.pattern import ContactPattern
 
 __all__ = ["PeriodicOrbit", "STATUS", "converged_message"]
 
@@ -77,7 +78,13 @@ class PeriodicOrbit(Bunch):
     nodes : ndarray of float, shape (n_nodes,)
         Positions ``x`` or ``r`` of the nodes the fields live on.
     tc : ndarray of float, shape (n_nodes,)
-        Contact time of each node in [0, T).
+        Contact time of each node in [0, T), where the orbit is single-contact.
+    contacts : ContactPattern
+        The contact pattern of one period in the one shape and alphabet of the package
+        (:mod:`tps_solver.core.pattern`): per node the ordered contacts, each with its time,
+        kind (bounce / touch / stick / chatter) and, for a rest on the plate, the lift-off
+        time and what ended it.  Single-contact results derive it from ``tc``; shooting
+        orbits from their events; impact-and-stick solutions from their solved pattern.
     Gamma, e, t0, period : float
         Parameters; ``t0`` is the launch phase of the far-field flat layer.
     M : int
@@ -102,7 +109,21 @@ class PeriodicOrbit(Bunch):
     ('converged', ['height', 'status', 'velocity'])
     >>> PeriodicOrbit.as_times(2.0)
     array([2.])
+    >>> PeriodicOrbit(tc=np.array([1.0, 2.0]), period=12.0, e=0.45).contacts.sequences()
+    ['B', 'B']
     """
+
+    @property
+    def contacts(self):
+        """The contact pattern of one period (:class:`~tps_solver.core.pattern.ContactPattern`).
+
+        The base class derives it from ``tc``: one contact per node, a rebound (``"bounce"``)
+        for e > 0 and a touch-and-go (``"touch"``) for e = 0.
+        """
+        tc = self.get("tc")
+        if tc is None:
+            raise AttributeError(f"{type(self).__name__} has no contact pattern (no tc)")
+        return ContactPattern.single(tc, self.period, "bounce" if self.e > 0 else "touch")
 
     def velocity(self, t):
         """Velocity w(t) at the nodes; shape (len(t), n_nodes)."""

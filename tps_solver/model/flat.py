@@ -29,6 +29,7 @@ from scipy.optimize import brentq
 
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.costs import check_cost, harmonics_cost
+from tps_solver.core.pattern import ContactPattern
 from tps_solver.model.harmonics import flat_w_hat, height_from_velocity
 from tps_solver.model.flight import Flight, flight_velocity
 from tps_solver.model.sticking import sticking_orbit, touch_orbits
@@ -310,6 +311,52 @@ class FlatLayer:
         if self._orbit is None:
             return [(self.t0, "impact")]
         return list(self._orbit.events)
+
+    def contacts(self, n_nodes=1):
+        """The contact pattern of one period, ``[t0, t0 + T)``, on ``n_nodes`` identical nodes.
+
+        A :class:`~tps_solver.core.pattern.ContactPattern` in the package's one alphabet:
+        its letters are :attr:`contact_sequence`; a landing to rest (``"stick"``) or a
+        chatter tail (``"chatter"``, at its first impact) carries the lift-off that ends the
+        rest (smooth: the plate's reaction falls to zero where g turns positive).
+
+        Parameters
+        ----------
+        n_nodes : int
+            Nodes of a uniform lattice in this state (default 1).
+
+        Returns
+        -------
+        ContactPattern
+
+        Examples
+        --------
+        >>> fl = FlatLayer(4.1, e=0.0)
+        >>> p = fl.contacts()
+        >>> p.sequence(0) == fl.contact_sequence, bool(p.liftoff[1] == fl.t0 + fl.period)
+        (True, True)
+        >>> FlatLayer(4.4, e=0.1, pattern="stick").contacts(2).sequences()
+        ['BC', 'BC']
+        """
+        n_nodes = check_int(n_nodes, "n_nodes", minimum=1)
+        letters = self.contact_sequence
+        events = self.events
+        T = self.period
+        impacts = [t for t, k in events if k == "impact"]
+        kinds = {"B": "bounce", "T": "touch", "S": "stick", "C": "chatter"}
+        times, kind, lift = [], [], []
+        for i, letter in enumerate(letters):
+            t = impacts[i] if i < len(impacts) else next(t for t, k in events if k == "stick")
+            times.append(t)
+            kind.append(kinds[letter])
+            if letter in "SC":
+                after = [u for u, k in events if k == "liftoff" and u > t]
+                lift.append(after[0] if after else self.t0 + T)
+            else:
+                lift.append(math.nan)
+        node = np.repeat(np.arange(n_nodes), len(times))
+        return ContactPattern.from_contacts(node, np.tile(times, n_nodes), np.tile(kind, n_nodes), n_nodes,
+                                            T, t_start=self.t0, liftoff=np.tile(lift, n_nodes))
 
     @property
     def contact_sequence(self):

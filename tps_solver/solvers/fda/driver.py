@@ -30,7 +30,7 @@ METHODS = {"exact": ExactPropagator, "point": PointIntegrator, "ode": OdePropaga
 
 def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exact", *,
              stuck0=None, impact="point", rho_c=None, stick_velocity=None,
-             max_events_per_cycle=None, t_eval=None, callback=None, **options):
+             max_events_per_cycle=None, t_eval=None, callback=None, record_segments=False, **options):
     r"""Integrate the FDA (53) with impacts (54), sticking and lift-off.
 
     Parameters
@@ -68,6 +68,11 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
         end, with a :class:`~tps_solver.core.bunch.Bunch` ``progress`` holding ``t``, ``t_start``,
         ``t_end``, ``fraction`` (of the interval done) and ``n_events``.  A
         ``KeyboardInterrupt`` returns ``status=5`` with the state reached.
+    record_segments : bool, keyword-only
+        Keep the state after every event set (and at ``t_start``) in ``segments``: between two
+        records the motion is one smooth flow with a fixed contact set, so the record is the
+        exact dense output of an impulsive run (:class:`~tps_solver.solvers.fda.dense.PiecewiseFlow`
+        evaluates it).  Default False (``segments`` is None).
     **options
         Options of the chosen method (an option that does not apply to it raises
         ``ValueError`` naming it):
@@ -158,11 +163,12 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
         stuck = zeta < 0.0
     with blas_threads(1, enabled=small_dense(n)):
         return _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, method, options,
-                          cutoff, rule, stick_velocity, max_events_per_cycle, callback)
+                          cutoff, rule, stick_velocity, max_events_per_cycle, callback,
+                          bool(record_segments))
 
 
 def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, method, options, cutoff,
-               rule, stick_velocity, max_events_per_cycle, callback):
+               rule, stick_velocity, max_events_per_cycle, callback, record=False):
     """The one driver loop (see :func:`simulate`)."""
     n = lattice.n_nodes
     prop = cls(lattice, Gamma, e, **options)
@@ -172,6 +178,8 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
 
     log = EventLog(t_start, max_events_per_cycle)
     samples = [(t_start, w.copy(), zeta.copy())] if t_eval.size and t_eval[0] == t_start else []
+    records = [(t_start, w.copy(), zeta.copy(), np.array(stuck, dtype=bool))] if record else None
+    n_logged = 0
     t = t_start
     status, message = 0, "reached t_end"
     next_report = t_start + 2.0 * math.pi
@@ -201,6 +209,9 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
                 stuck = step.stuck
                 for rec in step.events:
                     log.add(rec[0], rec[1], rec[2], rec[3])
+            if record and len(log) != n_logged:
+                n_logged = len(log)
+                records.append((t, w.copy(), zeta.copy(), np.array(stuck, dtype=bool)))
             if log.exceeded:
                 status = 2
                 message = (f"event bound exceeded: more than {max_events_per_cycle} events in the forcing "
@@ -220,7 +231,16 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
         t=float(t), w=w, zeta=zeta, stuck=np.array(stuck, dtype=bool), events=events,
         n_events=int(events.size), success=status == 0, status=status, message=message, t_eval=te,
         w_eval=we, zeta_eval=ze, cutoff=cutoff, method=method, n_steps=int(prop.n_steps),
-        lattice=lattice, Gamma=Gamma, e=e)
+        lattice=lattice, Gamma=Gamma, e=e, segments=_segments(records, n))
+
+
+def _segments(records, n):
+    """The ``segments`` record of a run (None when not recorded)."""
+    if records is None:
+        return None
+    return Bunch(t=np.array([r[0] for r in records]), w=np.array([r[1] for r in records]).reshape(-1, n),
+                 zeta=np.array([r[2] for r in records]).reshape(-1, n),
+                 stuck=np.array([r[3] for r in records]).reshape(-1, n))
 
 
 def _progress(t, t_start, t_end, log):

@@ -66,6 +66,7 @@ import numpy as np
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
+from tps_solver.solvers.fda.dense import PiecewiseFlow
 
 __all__ = ["find_periodic_orbit", "ShootingOrbit"]
 
@@ -141,6 +142,9 @@ class ShootingOrbit(PeriodicOrbit):
         (entry, entry + contact time).
     events : numpy.recarray
         The events of one period from ``t_start`` (see :class:`~tps_solver.SimulationResult`).
+    segments : Bunch or None
+        Impulsive methods: the state after every event set of that period (``t``, ``w``,
+        ``zeta``, ``stuck``), from which ``velocity`` and ``height`` are evaluated exactly.
     events_per_period : int
     simultaneous_contacts : bool
         Two contacts at different nodes closer in time than ``simultaneity``.
@@ -170,10 +174,16 @@ class ShootingOrbit(PeriodicOrbit):
         return self.lattice.geometry
 
     def _sample(self, t):
-        from tps_solver.solvers.fda import simulate
-
         t = np.atleast_1d(np.asarray(t, dtype=float))
         tau = np.mod(t - self.t_start, self.period)
+        segments = self.get("segments")
+        if segments is not None and self.method != "soft":
+            # exact dense output of the stored period (no time stepping)
+            flow = PiecewiseFlow(self.lattice, self.Gamma, segments, self.t_start + self.period)
+            return flow(self.t_start + tau)
+        from tps_solver.solvers.fda import simulate
+
+        # soft contact (or no stored period): integrate the period from the state at t_start,
         # one sample per distinct phase (simulate wants strictly increasing output times)
         phases, where = np.unique(tau, return_inverse=True)
         kw = dict(self._sim_kw)
@@ -186,7 +196,12 @@ class ShootingOrbit(PeriodicOrbit):
         return run.w_eval[where], run.zeta_eval[where]
 
     def velocity(self, t):
-        """Node velocities on the orbit at times ``t`` (by time stepping from ``t_start``).
+        """Node velocities on the orbit at times ``t``.
+
+        Impulsive methods evaluate the stored period exactly (``segments``, the state after
+        every event set, propagated in closed form by
+        :class:`~tps_solver.solvers.fda.dense.PiecewiseFlow`); the soft contact integrates one
+        period from ``t_start``.
 
         Parameters
         ----------
@@ -237,7 +252,7 @@ class _PeriodMap:
     def pack(self, w, z):
         return np.concatenate((w[self.free], z[self.free]))
 
-    def run(self, x, periods=1, t_eval=None):
+    def run(self, x, periods=1, t_eval=None, record=False):
         from tps_solver.solvers.fda import simulate
 
         w, z = self.state(x)
@@ -247,7 +262,8 @@ class _PeriodMap:
             kw["max_events_per_cycle"] = self.max_events
         self.count += periods
         run = simulate(self.lattice, self.Gamma, self.e, w, z, t_start=self.t_s,
-                       t_end=self.t_s + periods * self.T, method=self.method, t_eval=t_eval, **kw)
+                       t_end=self.t_s + periods * self.T, method=self.method, t_eval=t_eval,
+                       record_segments=record, **kw)
         if run.status == 2:
             raise _MapError(6, f"event bound exceeded in the period map: {run.message}; raise "
                                "max_events_per_period, raise stick_velocity (chatter turns into sticking "
@@ -763,8 +779,9 @@ def _finish(out, notes, start_clock):
 
 def _pattern(out, pm, x, simultaneity):
     """Contact pattern of one period from x (events, contacts per node, sticking intervals)."""
-    run = pm.run(x)
+    run = pm.run(x, record=pm.method != "soft")
     ev = run.events
+    out.segments = run.segments
     n = pm.lattice.n_nodes
     contact = (ev.kind == "impact") | (ev.kind == "stick")
     times = [np.asarray(ev.t[contact & (ev.node == j)], dtype=float) for j in range(n)]

@@ -90,6 +90,8 @@ from numpy.polynomial.legendre import leggauss, legvander
 from scipy.linalg import lu_factor, lu_solve
 
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.orbit import PeriodicOrbit
+from tps_solver.core.pattern import ContactPattern
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
 from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_orbit
 from tps_solver.solvers.tps.stick_pattern import (StickPattern, check_pattern, check_with_fda, kink_state,
@@ -102,8 +104,12 @@ __all__ = ["StickSolution", "StickPattern", "flat_stick_orbit", "solve_stick_fla
            "solve_stick_lattice", "pattern_from_fda", "pattern_from_orbit", "kink_state"]
 
 
-class StickSolution(Bunch):
-    r"""A time-periodic orbit with impact-and-stick contacts.
+class StickSolution(PeriodicOrbit):
+    r"""A time-periodic orbit with impact-and-stick contacts (a :class:`~tps_solver.core.orbit.PeriodicOrbit`).
+
+    ``contacts`` is the solved pattern in the package's one alphabet: a ``"bounce"`` of
+    the solver is a ``"touch"`` (touch-and-go) when e = 0, a ``"stick"`` carries its
+    lift-off, and a triggered lift-off names the neighbour whose landing ended it.
 
     Attributes
     ----------
@@ -126,7 +132,9 @@ class StickSolution(Bunch):
     impulses : ndarray of float, shape (n_nodes, K)
         Velocity jumps at the impacts.
     pattern : StickPattern
-        The solved pattern (flat arrays over contacts).
+        The solved pattern in the solver's own layout (flat arrays over contacts, with the
+        impulses and the trigger as a contact index); ``contacts`` is the same pattern as a
+        :class:`~tps_solver.core.pattern.ContactPattern`.
     w_hat : ndarray of complex, shape (2N+1, n_nodes)
         Velocity harmonics n = -N..N (computed from the source in closed form), N = ``n_harmonics``.
     period, Gamma, e : float
@@ -147,7 +155,21 @@ class StickSolution(Bunch):
     (True, 2, ['bounce', 'stick'])
     >>> bool(abs(sol.velocity([sol.liftoff_times[0, 1] - 0.1])[0, 0]) < 1e-12)   # stuck: w = 0
     True
+    >>> sol.contacts.sequence(0), [str(c) for c in sol.contacts.ended_by]
+    ('TS', ['', 'smooth'])
     """
+
+    @property
+    def contacts(self):
+        """The solved pattern as a :class:`~tps_solver.core.pattern.ContactPattern`."""
+        p = self.pattern
+        kind = np.where(p.kind == "stick", "stick", "bounce" if self.e > 0 else "touch")
+        trig = np.asarray(p.trigger, dtype=int)
+        trigger = np.where(trig >= 0, np.asarray(p.node)[np.maximum(trig, 0)], -1)
+        t = np.asarray(p.t, dtype=float)
+        t_start = math.floor(float(np.min(t)) / p.period) * p.period if t.size else 0.0
+        return ContactPattern.from_contacts(p.node, t, kind, p.n_nodes, p.period, t_start=t_start,
+                                            liftoff=p.tau, trigger=trigger)
 
     def velocity(self, t):
         """Velocity w(t) at the nodes (post-impact value at an impact instant).
