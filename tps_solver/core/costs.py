@@ -238,7 +238,7 @@ def check_cost(what, parameter, value, nbytes, seconds, hint=""):
             f"{parameter} = {value!r} is out of reach for {what}: estimated {', '.join(over)} "
             f"(estimate {format_bytes(nbytes)}, {format_seconds(seconds)}); lower {parameter}"
             + (f" ({hint})" if hint else "")
-            + ", or raise the limits with tps_solver.core.budget.set_limits(memory=..., time=...)")
+            + ", or raise the limits with tps_solver.core.costs.set_limits(memory=..., time=...)")
     return nbytes, seconds
 
 

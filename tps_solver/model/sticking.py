@@ -230,6 +230,47 @@ class ContactOrbit:
             j -= 1
         return "B" * j + "C"
 
+    def landings(self):
+        r"""The landings of one period :math:`[t_0, t_0 + T)`, in time order.
+
+        Returns
+        -------
+        list of tuple
+            ``(t, kind, w_minus, liftoff)``: the landing time, its kind -- ``"touch"``
+            (touch-and-go: a new flight from rest at once), ``"stick"`` (rest until
+            ``liftoff``), ``"bounce"`` (a rebound) or ``"chatter"`` (the first impact of a
+            summed chatter tail, at rest from its accumulation until ``liftoff``) --, the
+            pre-impact velocity :math:`w(t^-)` and the lift-off time (nan unless stick or chatter).
+
+        Examples
+        --------
+        >>> orb, _ = sticking_orbit(4.1, 0.0, 2)
+        >>> [(round(t, 9), k, round(w, 9)) for t, k, w, _ in orb.landings()]
+        [(7.434953167, 'touch', -1.19038202), (12.451615, 'stick', -1.810125689)]
+        >>> orb.landings()[-1][3] == orb.t0 + orb.period
+        True
+        """
+        segs = self.segments
+        out = []
+        for k, (kind, a, b, v) in enumerate(segs):
+            if kind != "flight":
+                continue
+            nxt = segs[(k + 1) % len(segs)]
+            w_minus = Flight(a, v, self.Gamma).w(b - a)
+            if nxt[0] == "stick":
+                out.append((b, "stick", w_minus, nxt[2]))
+            elif nxt[0] == "tail":
+                after = segs[(k + 2) % len(segs)]
+                out.append((b, "chatter", w_minus, after[2] if after[0] == "stick" else math.nan))
+            elif nxt[3] == 0.0:
+                out.append((b, "touch", w_minus, math.nan))
+            else:
+                out.append((b, "bounce", w_minus, math.nan))
+        end = self.t0 + self.period      # a landing at the period's end is the one at t0 (touch orbits)
+        slack = 8.0 * np.finfo(float).eps * (abs(end) + self.period)
+        out = [(self.t0 if t >= end - slack else t, *rest) for t, *rest in out]
+        return sorted(out, key=lambda c: c[0])
+
     # ------------------------------------------------------------------ evaluation
     def _wrap(self, t):
         t = np.asarray(t, dtype=float)

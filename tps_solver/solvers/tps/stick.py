@@ -98,7 +98,7 @@ from tps_solver.solvers.tps.stick_pattern import (StickPattern, check_pattern, c
                                                   make_pattern, pattern_from_fda, pattern_from_orbit,
                                                   same_lattice)
 from tps_solver.operators.modal import ModalBasis
-from tps_solver.solvers.tps.stick_problem import StickProblem, flat_functions, flat_stick_orbit
+from tps_solver.solvers.tps.stick_problem import StickProblem, flat_stick_orbit
 
 __all__ = ["StickSolution", "StickPattern", "flat_stick_orbit", "solve_stick_flat", "check_with_fda",
            "solve_stick_lattice", "pattern_from_fda", "pattern_from_orbit", "kink_state"]
@@ -486,7 +486,7 @@ def solve_stick_flat(Gamma=4.1, M=2, e=0.0, n_harmonics=32, *, n_nodes=1, length
     sol = _solve_pattern(ModalBasis(lat, period=orb.period), pat, lat.nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
                          n_harmonics)
     sol.exact = orb
-    w, z = flat_functions(orb)
+    w, z = orb.orbit.velocity, orb.orbit.height
     sol._flat_state = (w, z)
     return sol
 

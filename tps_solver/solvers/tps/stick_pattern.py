@@ -13,7 +13,7 @@ import numpy as np
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
 from tps_solver.solvers.shooting.periodic import ShootingOrbit
-from tps_solver.solvers.tps.stick_problem import KINDS, flat_functions, flat_stick_orbit
+from tps_solver.solvers.tps.stick_problem import KINDS, flat_stick_orbit
 
 __all__ = ["StickPattern", "kink_state", "pattern_from_fda", "pattern_from_orbit", "check_with_fda"]
 
@@ -144,7 +144,7 @@ def kink_state(lattice, Gamma, M=2, t=None):
     if M % 2:
         raise ValueError(f"M must be even for a kink start, got {M}")
     t = orb.t_liftoff + 0.5 if t is None else check_real(t, "t")
-    w, z = flat_functions(orb)
+    w, z = orb.orbit.velocity, orb.orbit.height
     x = np.asarray(lattice.nodes, dtype=float)
     wl, zl = w(t), z(t)
     wr, zr = w(t + T / 2), z(t + T / 2)

@@ -5,16 +5,17 @@ The eigen-decomposition of the Neumann lattice operator and the all-orders kerne
 :class:`~tps_solver.operators.modal.ModalBasis`, :func:`~tps_solver.operators.modal.kernel`
 and :func:`~tps_solver.operators.modal.kernel_integral`; :class:`StickProblem` evaluates the
 residual and Jacobian of the unknowns of a :class:`~tps_solver.solvers.tps.stick_pattern.StickPattern`.
-:func:`flat_stick_orbit` is the completely inelastic flat layer in closed form.
+:func:`flat_stick_orbit` reads the completely inelastic flat layer of
+:mod:`tps_solver.model.sticking` in the TPS's alphabet.
 """
 import math
 
 import numpy as np
 from numpy.polynomial.legendre import leggauss, legvander
-from scipy.optimize import brentq
 
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
+from tps_solver.model.sticking import sticking_orbit
 from tps_solver.operators.modal import kernel, kernel_integral
 
 __all__ = ["flat_stick_orbit"]
@@ -30,30 +31,6 @@ _CHUNK = 2 ** 22            # elements of the (requests, segments, modes) tempor
 
 
 # ----------------------------------------------------------------- flat layer
-def flat_flight(t0, Gamma):
-    """Height and velocity of a flight from rest on the plate at t0 (flat layer, (17))."""
-    c0, s0 = math.cos(t0), math.sin(t0)
-    z = lambda t: c0 * (t - t0) + s0 - math.sin(t) - (t - t0) ** 2 / (2 * Gamma)
-    w = lambda t: c0 - math.cos(t) - (t - t0) / Gamma
-    return z, w
-
-
-def next_landing(t0, Gamma, horizon):
-    """First root of zeta after t0 of a flight from rest at t0 (bracketed on a fine grid)."""
-    z, _ = flat_flight(t0, Gamma)
-    # zeta ~ g'(t0) (t - t0)^3 / 6 near a smooth lift-off: start the scan a little later
-    ts = np.linspace(t0, t0 + horizon, int(horizon * 400) + 2)[1:]
-    vals = np.array([z(t) for t in ts])
-    start = 1
-    while start < ts.size and vals[start - 1] <= 0.0 and abs(vals[start - 1]) < 1e-12:
-        start += 1
-    neg = np.nonzero(vals[start:] < 0.0)[0]
-    if neg.size == 0:
-        return None
-    i = neg[0] + start
-    return brentq(z, ts[i - 1], ts[i], xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
-
-
 def flat_stick_orbit(Gamma, M=2):
     r"""The completely inelastic flat layer (e = 0): contacts, kinds and lift-off, in closed form.
 
@@ -61,9 +38,11 @@ def flat_stick_orbit(Gamma, M=2):
     :math:`\cos t_L > 0`; flight (17) with :math:`W_0 = 0`,
     :math:`w = \cos t_L - \cos t - (t - t_L)/\Gamma`; a landing where
     :math:`g > 0` is a touch-and-go (a new flight from rest), the first landing
-    where :math:`g \le 0` ends in sticking until the next lift-off phase.  The
-    landing times are roots of the flight equation, found by Brent's method to
-    rounding.
+    where :math:`g \le 0` ends in sticking until the next lift-off phase.  This is the
+    e = 0 :func:`tps_solver.model.sticking.sticking_orbit` (certified landings,
+    :class:`tps_solver.model.flight.Flight`) read in the TPS's alphabet
+    (:data:`KINDS`: a touch-and-go is a ``"bounce"`` with :math:`w^+ = 0`); an orbit whose
+    period divides :math:`2\pi M` is repeated.
 
     Parameters
     ----------
@@ -78,7 +57,9 @@ def flat_stick_orbit(Gamma, M=2):
         ``t_liftoff`` (float, in [0, 2 pi)), ``t`` (contact times, ndarray of float,
         shape (K,), increasing, in (t_L, t_L + T)), ``kind`` (ndarray of str, shape
         (K,)), ``w_minus`` (pre-impact velocities, shape (K,)), ``tau`` (lift-off
-        after each contact, nan for a bounce), ``period``.
+        after each contact, nan for a bounce), ``period``, ``Gamma``, ``M`` and ``orbit``
+        (the :class:`~tps_solver.model.sticking.ContactOrbit`; its ``velocity(t)`` and
+        ``height(t)``, zeta = 0 at the contacts, are the orbit's w and zeta).
 
     Raises
     ------
@@ -97,34 +78,27 @@ def flat_stick_orbit(Gamma, M=2):
     if Gamma <= 1.0:
         raise ValueError(f"Gamma must be > 1 for the layer to lift off, got {Gamma}")
     T = 2 * math.pi * M
-    tL = math.asin(1.0 / Gamma)
-    ts, kinds, wm, taus = [], [], [], []
-    t_start = tL
-    while True:
-        t_land = next_landing(t_start, Gamma, T + 1.0)
-        if t_land is None or t_land >= tL + T:
-            raise ValueError(f"the e = 0 flat orbit at Gamma = {Gamma} does not close after "
-                             f"M = {M} forcing cycles (no landing before t_L + T)")
-        _, w = flat_flight(t_start, Gamma)
-        ts.append(t_land)
-        wm.append(w(t_land))
-        if math.sin(t_land) - 1.0 / Gamma > 0.0:
-            kinds.append("bounce")
-            taus.append(math.nan)
-            t_start = t_land
-            continue
-        kinds.append("stick")
-        cycles = math.ceil((t_land - tL) / (2 * math.pi))
-        tau = tL + 2 * math.pi * cycles
-        taus.append(tau)
-        if abs(tau - (tL + T)) < 1e-12:
+    orbit, info = sticking_orbit(Gamma, 0.0, M)
+    k = M
+    for d in range(M - 1, 0, -1):       # an orbit whose period divides 2 pi M, repeated
+        if orbit is not None:
             break
-        if tau > tL + T:
-            raise ValueError(f"the e = 0 flat orbit at Gamma = {Gamma} does not close after "
-                             f"M = {M} forcing cycles")
-        t_start = tau
-    return Bunch(t_liftoff=tL, t=np.array(ts), kind=np.array(kinds), w_minus=np.array(wm),
-                 tau=np.array(taus), period=T, Gamma=Gamma, M=M)
+        if M % d == 0:
+            orbit, _ = sticking_orbit(Gamma, 0.0, d)
+            k = d
+    if orbit is None:
+        raise ValueError(f"the e = 0 flat orbit at Gamma = {Gamma} does not close after "
+                         f"M = {M} forcing cycles ({info})")
+    ts, kinds, wm, taus = [], [], [], []
+    for rep in range(M // k):
+        shift = 2 * math.pi * k * rep
+        for t, kind, w_minus, lift in orbit.landings():
+            ts.append(t + shift)
+            kinds.append("bounce" if kind == "touch" else kind)
+            wm.append(w_minus)
+            taus.append(lift + shift)
+    return Bunch(t_liftoff=orbit.t0, t=np.array(ts), kind=np.array(kinds), w_minus=np.array(wm),
+                 tau=np.array(taus), period=T, Gamma=Gamma, M=M, orbit=orbit)
 
 
 # ------------------------------------------------------------------ patterns
@@ -553,41 +527,3 @@ class StickProblem:
 
 
 # ------------------------------------------------------------------ result
-def flat_functions(orb):
-    """Vectorised closed-form w(t), zeta(t) of the flat e = 0 orbit (zeta = 0 at the first contact)."""
-    T, G, tL = orb.period, orb.Gamma, orb.t_liftoff
-    starts = np.concatenate([[tL], orb.t[orb.kind == "bounce"]])
-    ends = orb.t
-    # flights: [starts[k], ends[k]) with starts[0] = tL, then each bounce restarts from rest
-    flights = []
-    s = tL
-    for k in range(orb.t.size):
-        flights.append((s, orb.t[k]))
-        if orb.kind[k] == "bounce":
-            s = orb.t[k]
-        else:
-            s = orb.tau[k]
-    del starts, ends
-
-    def w(t):
-        t = np.asarray(t, dtype=float)
-        ph = tL + np.mod(t - tL, T)
-        out = np.zeros_like(ph)
-        for a, b in flights:
-            m = (ph >= a) & (ph < b)
-            out[m] = np.cos(a) - np.cos(ph[m]) - (ph[m] - a) / G
-        return out
-
-    def z(t):
-        t = np.asarray(t, dtype=float)
-        ph = tL + np.mod(t - tL, T)
-        out = np.zeros_like(ph)
-        for a, b in flights:
-            m = (ph >= a) & (ph < b)
-            d = ph[m] - a
-            out[m] = np.cos(a) * d + np.sin(a) - np.sin(ph[m]) - d * d / (2 * G)
-        return out
-
-    return w, z
-
-
