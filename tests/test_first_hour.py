@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import tps_solver as tps
-from tps_solver.core import budget, defaults
+from tps_solver.core import costs as budget, defaults, progress
 from tps_solver.solvers.tps.engine import newton
 
 COARSE = dict(n_nodes=8, length=140.0)          # the README's coarse lattice (spacing 20)
@@ -279,7 +279,7 @@ def test_small_lattices_run_on_one_blas_thread():
 def test_blas_limit_scans_the_thread_pools_once(monkeypatch):
     """threadpoolctl's scan of the loaded libraries (2-4 ms) is kept between blas_threads blocks."""
     threadpoolctl = pytest.importorskip("threadpoolctl")
-    from tps_solver.core import budget
+    from tps_solver.core import costs as budget
 
     scans = []
     real = threadpoolctl.ThreadpoolController
@@ -309,7 +309,7 @@ def test_progress_display_without_tqdm(monkeypatch, caplog):
 
     monkeypatch.setattr(builtins, "__import__", no_tqdm)
     with caplog.at_level(logging.INFO, logger="tps_solver"):
-        with budget.Progress("kink") as bar:
+        with progress.Progress("kink") as bar:
             assert bar.bar is None
             bar.newton(3, None, 1.5e-4)
             bar.fraction(argparse.Namespace(fraction=1.0))

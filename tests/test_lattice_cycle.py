@@ -7,7 +7,7 @@ import pytest
 
 import tps_solver as tps
 from tps_solver.solvers.fda import simulate
-from tps_solver.solvers.tps.cycle import _H, _H_int
+from tps_solver.operators.modal import kernel as _H, kernel_integral as _H_int
 
 EPS = np.finfo(float).eps
 

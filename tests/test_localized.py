@@ -1,4 +1,5 @@
 """Kinks and oscillons on lattices by settling and shooting (tps_solver.analyses.localized)."""
+import math
 import numpy as np
 import pytest
 
@@ -114,3 +115,32 @@ def test_e0_oscillon_core_collapses_on_a_finer_lattice():
     orb = lattice_oscillon(lat, Gamma=4.1, e=0.0, core_radius=12.0, periods=10, multipliers=False)
     assert orb.converged and not orb.localized
     assert orb.message.startswith("the phase-shifted region did not survive")
+
+
+class _TanhKink:
+    """A manufactured front zeta = zL(t) + (zR(t) - zL(t)) (1 + tanh(x/w))/2, 10-90 width 2 atanh(0.8) w."""
+
+    def __init__(self, w, n=20001):
+        self.lattice = tps.Lattice.planar(n_nodes=n, length=30.0 * w)      # tanh(15) = 1 - 2e-13
+        self.w, self.period, self.t_start = w, 4 * np.pi, 0.3
+
+    def height(self, t):
+        t = np.atleast_1d(t)[:, None]
+        zl, zr = 1.0 + np.sin(t / 2), 1.0 - np.sin(t / 2)
+        return zl + (zr - zl) * 0.5 * (1.0 + np.tanh(self.lattice.nodes[None, :] / self.w))
+
+
+@pytest.mark.parametrize("w", [0.5, 1.0, 2.0])
+def test_front_width_of_a_manufactured_tanh_front(w):
+    want = 2.0 * math.atanh(0.8) * w
+    wl, wr = front_width(_TanhKink(w), n_samples=64)
+    assert abs(wl - want) <= 1e-6 * want and abs(wr - want) <= 1e-6 * want
+
+
+def test_front_width_refuses_orbits_without_a_front():
+    with pytest.raises(ValueError, match="orbit must be a kink"):
+        front_width(tps.FlatLayer(2.5, e=0.45))
+    flat = _TanhKink(1.0, n=11)
+    flat.height = lambda t: np.ones((np.size(t), 11)) * 5.49
+    with pytest.raises(ValueError, match="no front"):
+        front_width(flat)

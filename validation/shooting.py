@@ -92,14 +92,17 @@ def e0_flat_state(Gamma, M, s, n_nodes=3):
 
 
 def e0_kink_guess(lattice, Gamma=4.1, M=2, periods=10, width=2.0, phase=0.25):
-    """Time-stepped e = 0 kink: two flat layers T/2 apart joined linearly over ``width``,
-    integrated for ``periods`` periods.  Returns the SimulationResult."""
+    """Time-stepped e = 0 kink: :func:`tps_solver.solvers.fda.kink_state` with the e = 0 sticking far
+    field (two flat layers T/2 apart joined linearly over ``width``), integrated for ``periods``
+    periods from two periods after the lift-off plus ``phase`` T.  Returns the SimulationResult."""
+    from tps_solver.model.sticking import sticking_orbit
     T = 2.0 * math.pi * M
-    s = math.asin(1.0 / Gamma) + phase * T
-    wl, zl, s = e0_flat_state(Gamma, M, s)
-    wr, zr, _ = e0_flat_state(Gamma, M, s + 0.5 * T)
-    th = np.clip(lattice.nodes / width + 0.5, 0.0, 1.0)
-    w, z = wl + th * (wr - wl), zl + th * (zr - zl)
+    tl = math.asin(1.0 / Gamma)
+    s = tl + 1e-9 + 2 * T + np.mod(phase * T - 1e-9, T)
+    orb, info = sticking_orbit(Gamma, 0.0, M)
+    if orb is None:
+        raise ValueError(f"no e = 0 sticking orbit of period 2 pi M at Gamma = {Gamma}: {info}")
+    w, z = kink_state(lattice, orb, s, width=width)
     return tps.simulate(lattice, Gamma, 0.0, w, z, t_start=s, t_end=s + periods * T)
 
 

@@ -95,7 +95,7 @@ def run(args, geometry):
     common = dict(Gamma=args.gamma, M=args.M, e=e, t0=t0, n_harmonics=args.N, n_nodes=args.nodes,
                   tol=args.tol, max_iter=args.max_iter, scheme=args.scheme,
                   continuation=not args.no_continuation, min_shift=args.min_shift)
-    from tps_solver.core.budget import Progress
+    from tps_solver.core.progress import Progress
 
     with Progress(f"{'kink' if geometry == 'planar' else 'oscillon'} TPS") as bar:
         common["callback"] = bar.newton

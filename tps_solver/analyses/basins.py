@@ -76,13 +76,12 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from tps_solver.model.ball import CONTACT, FREE, MODE_NAMES, STUCK, ClosedFormBall
 
 __all__ = ["flat_basins", "BasinResult", "ball_cycle"]
 
 MODELS = ("point", "soft")
 INTEGRATORS = ("closed_form", "simulate")
-FREE, STUCK, CONTACT = 0, 1, 2
-MODE_NAMES = ("free", "stuck", "contact")
 _TWO_PI = 2.0 * math.pi
 _MATCH_TOL = 1e-5
 _FD_STEP = 1e-6
@@ -146,9 +145,6 @@ class BasinResult(Bunch):
     (1.0, True, 2)
     """
 
-
-# ------------------------------------------------------------ the single ball
-
     def save(self, path):
         """Write the result to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.core.archive`); returns the path."""
         return archive.save(self, path)
@@ -163,201 +159,6 @@ def _validate_basins(f):
 
 
 archive.register("BasinResult", BasinResult, validate=_validate_basins)
-
-
-def _sin_minus(d):
-    """sin(d) - d, accurate for small |d|."""
-    if abs(d) < 0.1:
-        d2 = d * d
-        return -d * d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (1.0 - d2 / 72.0)))
-    return math.sin(d) - d
-
-
-class _Flight:
-    """Free flight from ``(t_a, w_a, z_a)``: velocity and height after a time ``d``."""
-
-    def __init__(self, t_a, w_a, z_a, inv_G):
-        self.t_a, self.w_a, self.z_a, self.inv_G = t_a, w_a, z_a, inv_G
-        self.s, self.c = math.sin(t_a), math.cos(t_a)
-
-    def w(self, d):
-        h = math.sin(0.5 * d)
-        return self.w_a + self.s * math.sin(d) + 2.0 * self.c * h * h - d * self.inv_G
-
-    def z(self, d):
-        h = math.sin(0.5 * d)
-        return (self.z_a + self.w_a * d + 2.0 * self.s * h * h - self.c * _sin_minus(d)
-                - 0.5 * d * d * self.inv_G)
-
-
-def _root(f, a, b):
-    """The root of a monotone f with a sign change on [a, b], to relative precision.
-
-    The bracket is first shrunk geometrically towards ``a`` (a binary search
-    over ``a + (b - a) 2^-j``), so a root many decades smaller than ``b - a``
-    (a chatter flight) is found as precisely as a large one.
-    """
-    from scipy.optimize import brentq
-    fa = f(a)
-    L = b - a
-    lo, hi = 0, 1100                   # sign(f(x(lo))) == sign(f(b)), sign(f(x(hi))) == sign(f(a))
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if (f(a + math.ldexp(L, -mid)) > 0.0) == (fa > 0.0):
-            hi = mid
-        else:
-            lo = mid
-    left, right = a + math.ldexp(L, -hi), a + math.ldexp(L, -lo)
-    if left == right:
-        return right
-    return brentq(f, left, right, xtol=1e-300, rtol=4.0 * np.finfo(float).eps, maxiter=500)
-
-
-def _accel_zeros(t_a, t_b, Gamma):
-    """Zeros of g(t) = sin t - 1/Gamma in (t_a, t_b), sorted."""
-    if Gamma <= 1.0:
-        return []
-    base = math.asin(1.0 / Gamma)
-    out = []
-    k = math.floor((t_a - math.pi) / _TWO_PI) - 1
-    while base + _TWO_PI * k <= t_b + _TWO_PI:
-        for z in (base + _TWO_PI * k, math.pi - base + _TWO_PI * k):
-            if t_a < z < t_b:
-                out.append(z)
-        k += 1
-    return sorted(out)
-
-
-def _next_liftoff(t, Gamma):
-    """First time >= t at which g turns positive (None if Gamma <= 1)."""
-    if Gamma <= 1.0:
-        return None
-    base = math.asin(1.0 / Gamma)
-    k = math.ceil((t - base) / _TWO_PI)
-    tl = base + _TWO_PI * k
-    return tl if tl >= t else tl + _TWO_PI
-
-
-class _ClosedFormBall:
-    """Exact event-driven single ball (module docstring); ``cycle`` maps one forcing cycle."""
-
-    def __init__(self, Gamma, e, model, cutoff, stick_velocity, max_events, soft_sticking=False):
-        self.Gamma, self.e, self.model = Gamma, e, model
-        self.soft_sticking = soft_sticking
-        self.inv_G = 1.0 / Gamma
-        self.stick_velocity, self.max_events = stick_velocity, max_events
-        if model == "soft":
-            self.tau_c = cutoff * cutoff
-            self.omega_d = math.pi / self.tau_c
-            self.beta = -math.log(e) / self.tau_c
-
-    def _g(self, t):
-        return math.sin(t) - self.inv_G
-
-    def _impact(self, t_a, w_a, z_a, t_end):
-        """First root of the height in (t_a, t_end] -> (d, w_minus), or None."""
-        fl = _Flight(t_a, w_a, z_a, self.inv_G)
-        H = t_end - t_a
-        breaks = [0.0] + [z - t_a for z in _accel_zeros(t_a, t_end, self.Gamma)] + [H]
-        pieces = []
-        for a, b in zip(breaks[:-1], breaks[1:]):
-            wa, wb = fl.w(a), fl.w(b)
-            if wa * wb < 0.0:
-                m = _root(fl.w, a, b)
-                pieces += [(a, m), (m, b)]
-            else:
-                pieces.append((a, b))
-        za = fl.z(0.0)
-        for i, (a, b) in enumerate(pieces):
-            zb = fl.z(b)
-            if i > 0 and za == 0.0:
-                return a, fl.w(a)
-            if za > 0.0 and zb <= 0.0:
-                d = b if zb == 0.0 else _root(fl.z, a, b)
-                return d, min(fl.w(d), 0.0)
-            za = zb
-        return None
-
-    def _contact_exit(self, w0, z0):
-        """Soft contact from (w0, z0 <= 0): time to the exit and the exit velocity."""
-        A = z0
-        B = (w0 + self.beta * z0) / self.omega_d
-        if A == 0.0:
-            if B > 0.0:                # at the plate and leaving it
-                return 0.0, w0
-            phi = -math.pi             # entering (w0 <= 0): half an oscillation
-        else:
-            phi = math.atan2(A, B)     # A < 0: phi in (-pi, 0)
-        s = -phi / self.omega_d
-        return s, math.hypot(A, B) * self.omega_d * math.exp(-self.beta * s)
-
-    def _contact_state(self, w0, z0, s):
-        """State a time s < exit time into the contact from (w0, z0)."""
-        A = z0
-        B = (w0 + self.beta * z0) / self.omega_d
-        ex = math.exp(-self.beta * s)
-        c, sn = math.cos(self.omega_d * s), math.sin(self.omega_d * s)
-        z = ex * (A * c + B * sn)
-        w = ex * ((B * self.omega_d - self.beta * A) * c - (A * self.omega_d + self.beta * B) * sn)
-        return w, (z if z < 0.0 else -0.0)
-
-    def advance(self, t, t_end, w, z, mode, events=None):
-        """Propagate from t to t_end; returns (w, z, mode) at t_end; appends (t, kind) to ``events``."""
-        n_events = 0
-        lifted = False                 # just lifted off: g turns positive here, no contact at once
-        while True:
-            if n_events > self.max_events:
-                raise RuntimeError(f"more than {self.max_events} events in one forcing cycle near t = {t:.12g}")
-            if mode == STUCK:
-                tl = t if self._g(t) > 0.0 else _next_liftoff(t, self.Gamma)
-                if tl is None or tl >= t_end:
-                    return 0.0, 0.0, STUCK
-                t, w, z, mode, lifted = tl, 0.0, 0.0, FREE, True
-                if events is not None:
-                    events.append((t, "liftoff"))
-                n_events += 1
-                continue
-            if mode == CONTACT:
-                s, v = self._contact_exit(w, z)
-                if t + s >= t_end:
-                    w, z = self._contact_state(w, z, t_end - t)
-                    return w, z, CONTACT
-                t, w, z, mode = t + s, v, 0.0, FREE
-                continue
-            # free flight; at the plate and not leaving it -> contact now
-            if not lifted and z <= 0.0 and (w < 0.0 or (w == 0.0 and self._g(t) <= 0.0)):
-                hit = (0.0, min(w, 0.0))
-            else:
-                hit = self._impact(t, w, z, t_end)
-            lifted = False
-            if hit is None:
-                fl = _Flight(t, w, z, self.inv_G)
-                d = t_end - t
-                return fl.w(d), max(fl.z(d), 0.0), FREE
-            d, w_minus = hit
-            t = t + d
-            n_events += 1
-            if self.model == "soft" and not (self.soft_sticking and abs(w_minus) <= self.stick_velocity):
-                if events is not None:
-                    events.append((t, "impact"))
-                w, z, mode = w_minus, 0.0, CONTACT
-                continue
-            z = 0.0
-            if abs(w_minus) <= self.stick_velocity or self.e == 0.0:
-                w = 0.0
-                if self._g(t) <= 0.0:
-                    mode = STUCK
-                    if events is not None:
-                        events.append((t, "stick"))
-                    continue
-            else:
-                w = -self.e * w_minus
-            if events is not None:
-                events.append((t, "impact"))
-
-    def cycle(self, t_section, state, events=None):
-        w, z, mode = state
-        return self.advance(t_section, t_section + _TWO_PI, w, z, mode, events)
 
 
 class _SimulateBall:
@@ -392,7 +193,7 @@ class _SimulateBall:
 
 
 def _make_ball(Gamma, e, model, cutoff, stick_velocity, max_events, integrator, soft_sticking=False):
-    cls = _ClosedFormBall if integrator == "closed_form" else _SimulateBall
+    cls = ClosedFormBall if integrator == "closed_form" else _SimulateBall
     return cls(Gamma, e, model, cutoff, stick_velocity, max_events, soft_sticking)
 
 

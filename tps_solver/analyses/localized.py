@@ -326,9 +326,17 @@ def interface_position(x, profile, level=0.5):
 def front_width(orbit, n_samples=512):
     r"""10--90 % width of a kink's front at the two instants where a far field is highest.
 
-    With :math:`\theta = (\zeta - \zeta_L)/(\zeta_R - \zeta_L)` (oriented to increase), the
-    width is the distance between :math:`\theta = 0.1` and :math:`0.9`, measured at the sampled
-    instant where the left far field is highest and at the one where the right is.
+    The package's one front width.  With :math:`\theta = (\zeta - \zeta_L)/(\zeta_R - \zeta_L)`
+    (:math:`\zeta_{L,R}` the end nodes, oriented to increase), the width is the distance
+    between :math:`\theta = 0.1` and :math:`0.9` (linear interpolation between nodes), measured
+    at the sampled instant where the left far field is highest and at the one where the right
+    is.  Why these instants: the two far fields are half a period apart, so when one is at the
+    top of its flight the other is low (for e = 0, at rest on the plate) and the contrast
+    :math:`|\zeta_R - \zeta_L|` that normalises :math:`\theta` is near its largest.  The
+    instant where the lower far field is highest (:math:`\min(\zeta_L, \zeta_R)` largest) is
+    for these antiphase far fields where :math:`\zeta_L \approx \zeta_R`, i.e. where
+    :math:`\theta` is 0/0 and the width ill-conditioned, so it is not used.  On a symmetric
+    kink the two widths agree.
 
     Parameters
     ----------
@@ -343,6 +351,12 @@ def front_width(orbit, n_samples=512):
     (float, float)
         Width at the left far field's highest point, width at the right's.
 
+    Raises
+    ------
+    ValueError
+        If ``orbit`` is not a lattice orbit (e.g. a FlatLayer), or has no front (the far
+        fields coincide at the measuring instant: a flat orbit).
+
     Examples
     --------
     >>> import tps_solver as tps
@@ -353,12 +367,19 @@ def front_width(orbit, n_samples=512):
     (12.76, True)
     """
     n_samples = check_int(n_samples, "n_samples", minimum=8)
+    if getattr(orbit, "lattice", None) is None or not hasattr(orbit, "t_start"):
+        raise ValueError(f"orbit must be a kink on a lattice (with lattice, t_start, height, period), "
+                         f"got {type(orbit).__name__}: a flat layer has no front")
     ts = orbit.t_start + orbit.period * np.arange(n_samples) / n_samples
     Z = np.asarray(orbit.height(ts))
     x = orbit.lattice.nodes
     out = []
     for col in (0, -1):
         z = Z[int(np.argmax(Z[:, col]))]
+        scale = max(float(np.max(np.abs(Z))), np.finfo(float).tiny)
+        if abs(z[-1] - z[0]) <= 1e-9 * scale:
+            raise ValueError("orbit has no front: its far fields coincide (|zeta_R - zeta_L| = "
+                             f"{abs(z[-1] - z[0]):.3g} at the measuring instant), e.g. a flat orbit")
         th = (z - z[0]) / (z[-1] - z[0])
         if th[-1] < th[0]:
             z = z[::-1]

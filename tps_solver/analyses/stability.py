@@ -47,7 +47,7 @@ Only periodic orbits are checked: a TPS result with ``converged = False`` is ref
 Cost and interrupts: ``callback(progress)`` receives a :class:`~tps_solver.core.bunch.Bunch`
 with ``stage``, ``fraction`` (of the whole check) and ``periods_done``; a
 ``KeyboardInterrupt`` returns what was measured so far with ``interrupted = True``.
-The small dense kernels run on one BLAS thread (:func:`tps_solver.core.budget.blas_threads`).
+The small dense kernels run on one BLAS thread (:func:`tps_solver.core.costs.blas_threads`).
 """
 import math
 
@@ -56,7 +56,7 @@ import numpy as np
 from tps_solver.core import archive as io
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_choice, check_int, check_positive
-from tps_solver.core.budget import blas_threads, small_dense
+from tps_solver.core.costs import blas_threads, small_dense
 from tps_solver.solvers.fda import Lattice, flat_state, simulate
 from tps_solver.solvers.shooting.soft_monodromy import soft_monodromy
 

@@ -24,8 +24,8 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   point file, or one copied over another point's (its stored key differs), is reported
   on the ``tps_solver.sweep`` logger and the point is computed again.
 * **Progress.**  A tqdm bar when tqdm is installed (``pip install
-  tps-solver[progress]``), otherwise log records on the ``tps_solver.sweep``
-  logger; ``callback(done, total, params, result)`` is called in this process
+  tps-solver[progress]``), otherwise log records on the ``tps_solver``
+  logger (:class:`tps_solver.core.progress.Progress`, the package's one progress display); ``callback(done, total, params, result)`` is called in this process
   after every computed point.
 * **Interruption.**  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the
   callback) cancels the points not yet started and raises
@@ -63,6 +63,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
+from tps_solver.core.progress import Progress
 
 __all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted"]
 
@@ -428,39 +429,6 @@ def _resolve_executor(executor, max_workers):
                      f"dask.distributed.Client, got {type(executor).__name__}")
 
 
-class _Progress:
-    def __init__(self, total, initial, enabled):
-        self.total, self.done = total, initial
-        self.bar = None
-        self._next_log = initial
-        if enabled is False:
-            self.enabled = False
-            return
-        self.enabled = True
-        try:
-            from tqdm.auto import tqdm
-        except ImportError:
-            tqdm = None
-        if tqdm is not None:
-            self.bar = tqdm(total=total, initial=initial, desc="sweep", unit="pt", dynamic_ncols=True)
-        else:
-            _LOG.info("sweep: %d of %d points already in the store", initial, total)
-
-    def update(self):
-        self.done += 1
-        if not self.enabled:
-            return
-        if self.bar is not None:
-            self.bar.update(1)
-        elif self.done >= self._next_log or self.done == self.total:
-            _LOG.info("sweep: %d of %d points done", self.done, self.total)
-            self._next_log = self.done + max(1, self.total // 10)
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
-
-
 def sweep(task, params, executor=None, store=None, *, callback=None, progress=None, max_workers=None,
           threads="auto"):
     """Evaluate ``task(**p)`` for every parameter dict ``p``, in parallel and resumably.
@@ -557,7 +525,7 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
             finished[idx] = True
         else:
             todo.append(k)
-    bar = _Progress(n, int(finished.sum()), progress)
+    bar = Progress("sweep", total=n, enabled=progress is not False, initial=int(finished.sum()), unit="pt")
 
     def record(k, value):
         idx = positions[k]

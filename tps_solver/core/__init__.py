@@ -1,2 +1,2 @@
 """The foundation: argument checks, result bunches, the orbit vocabulary and status table, defaults,
-cost budgets and progress, and the file archive.  Imports nothing else of ``tps_solver``."""
+cost estimates (costs), the progress display (progress), and the file archive.  Imports nothing else of ``tps_solver``."""

@@ -29,9 +29,10 @@ from scipy.optimize import brentq
 
 from tps_solver.core import archive
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real, check_restitution
-from tps_solver.core.budget import check_cost, harmonics_cost
+from tps_solver.core.costs import check_cost, harmonics_cost
 from tps_solver.core.pattern import ContactPattern
 from tps_solver.model.harmonics import flat_w_hat, height_from_velocity
+from tps_solver.model.flight import Flight, flight_velocity
 from tps_solver.model.sticking import sticking_orbit, touch_orbits
 
 __all__ = ["FlatLayer"]
@@ -113,91 +114,6 @@ def _existing_patterns(Gamma, M, e, exclude=None):
     head = (f"patterns that exist for Gamma = {Gamma}, e = {e}, M = {M}: "
             f"{', '.join(found) if found else 'none'}")
     return head + (f" ({'; '.join(reasons)})" if reasons else "")
-
-
-def _flight_velocity(t, t_start, v, Gamma):
-    """Plate-frame velocity at ``t`` of a flight launched at ``t_start`` with velocity ``v``."""
-    return v + math.cos(t_start) - math.cos(t) - (t - t_start) / Gamma
-
-
-def _flight_height(t, t_start, v, Gamma):
-    """Plate-frame height at ``t`` of a flight launched at ``t_start`` from zero height."""
-    d = t - t_start
-    return (v + math.cos(t_start)) * d + math.sin(t_start) - math.sin(t) - d * d / (2.0 * Gamma)
-
-
-def _acceleration_zeros(a, b, Gamma):
-    """Sorted zeros of g(t) = sin t - 1/Gamma in the open interval (a, b)."""
-    if Gamma < 1.0:
-        return []
-    base = math.asin(1.0 / Gamma)
-    zeros = []
-    k0 = math.floor((a - math.pi) / (2 * math.pi)) - 1
-    k = k0
-    while True:
-        for z in (base + 2 * math.pi * k, math.pi - base + 2 * math.pi * k):
-            if a < z < b:
-                zeros.append(z)
-        if base + 2 * math.pi * k > b:
-            break
-        k += 1
-    return sorted(zeros)
-
-
-def _monotone_pieces(t_start, t_end, v, Gamma):
-    """Split [t_start, t_end] into pieces on which the flight height is monotone.
-
-    Between consecutive zeros of the acceleration g the velocity is monotone,
-    so it has at most one zero there; splitting at that zero leaves pieces on
-    which the height is monotone.  This makes root and extremum searches
-    rigorous: a monotone piece holds at most one root and it is bracketed by
-    a sign change of its end values.
-    """
-    breaks = [t_start] + _acceleration_zeros(t_start, t_end, Gamma) + [t_end]
-    pieces = []
-    for a, b in zip(breaks[:-1], breaks[1:]):
-        wa = _flight_velocity(a, t_start, v, Gamma)
-        wb = _flight_velocity(b, t_start, v, Gamma)
-        if wa * wb < 0.0:
-            c = brentq(_flight_velocity, a, b, args=(t_start, v, Gamma), xtol=1e-15, rtol=1e-15)
-            pieces.extend([(a, c), (c, b)])
-        else:
-            pieces.append((a, b))
-    return pieces
-
-
-def _polish_root(f, fprime, t, lo, hi):
-    """A few safeguarded Newton steps on a bracketed simple root."""
-    for _ in range(3):
-        d = fprime(t)
-        if d == 0.0:
-            break
-        t_new = t - f(t) / d
-        if not lo <= t_new <= hi:
-            break
-        t = t_new
-    return t
-
-
-def _next_impact(t_start, v, Gamma, horizon):
-    """First time in (t_start, t_start + horizon] at which the flight height returns to zero.
-
-    Returns ``None`` if there is none.  ``v`` must be > 0, or = 0 with g(t_start) > 0.
-    """
-    t_end = t_start + horizon
-    pieces = _monotone_pieces(t_start, t_end, v, Gamma)
-    for i, (a, b) in enumerate(pieces):
-        za = 0.0 if i == 0 else _flight_height(a, t_start, v, Gamma)
-        zb = _flight_height(b, t_start, v, Gamma)
-        if i > 0 and za == 0.0:
-            return a
-        if za > 0.0 and zb <= 0.0:
-            if zb == 0.0:
-                return b
-            t = brentq(_flight_height, a, b, args=(t_start, v, Gamma), xtol=1e-15, rtol=1e-15)
-            return _polish_root(lambda s: _flight_height(s, t_start, v, Gamma),
-                                lambda s: _flight_velocity(s, t_start, v, Gamma), t, a, b)
-    return None
 
 
 class FlatLayer:
@@ -476,14 +392,15 @@ class FlatLayer:
         return 0.0 if self._orbit is None else self._orbit.tail_error
 
     def _check_admissible(self):
-        """Raise ValueError unless zeta > 0 on the open period (rigorous, see _monotone_pieces)."""
+        """Raise ValueError unless zeta > 0 on the open period (rigorous, see :meth:`Flight.first_landing`)."""
         t0, T, G = self.t0, self.period, self.Gamma
         if self.W0 < 0.0 or (self.W0 == 0.0 and math.sin(t0) - 1.0 / G <= 0.0):
             raise _NoBounceOrbit(
                 f"inadmissible orbit: post-impact velocity W0 = {self.W0:.6g} with g(t0) = "
                 f"{math.sin(t0) - 1.0 / G:.6g} does not lift off (for e = 0 the layer sticks; "
                 f"sticking orbits are not of the form (17)-(19))")
-        t_hit = _next_impact(t0, self.W0, G, T * (1.0 + 1e-9))
+        d_hit = Flight(t0, self.W0, G).first_landing(T * (1.0 + 1e-9))
+        t_hit = None if d_hit is None else t0 + d_hit
         if t_hit is None or t_hit < t0 + T * (1.0 - 1e-10):
             where = "never" if t_hit is None else f"at t = {t_hit:.12g} < t0 + T = {t0 + T:.12g}"
             raise _NoBounceOrbit(
@@ -539,7 +456,7 @@ class FlatLayer:
         """
         if self._orbit is not None:
             kind, a, b, v = self._orbit.segments[0]
-            return float(_flight_velocity(b, a, v, self.Gamma))
+            return float(flight_velocity(b, a, v, self.Gamma))
         return self.W0 - self.period / self.Gamma
 
     @property
@@ -548,9 +465,9 @@ class FlatLayer:
         if self._orbit is not None:
             return self._orbit.peak_height()
         best = 0.0
-        for a, b in _monotone_pieces(self.t0, self.t0 + self.period, self.W0, self.Gamma):
-            for t in (a, b):
-                best = max(best, float(self.height(t)))
+        for a, b in Flight(self.t0, self.W0, self.Gamma).monotone_pieces(self.period):
+            for d in (a, b):
+                best = max(best, float(self.height(self.t0 + d)))
         return best
 
     def harmonics(self, N):
@@ -627,10 +544,11 @@ class FlatLayer:
         v = check_real(v, "v")
         if v <= 0.0:
             raise ValueError(f"v must be > 0 (post-impact velocity), got {v}")
-        t_next = _next_impact(t, v, self.Gamma, 4.0 * self.period)
-        if t_next is None:
+        d = Flight(t, v, self.Gamma).first_landing(4.0 * self.period)
+        if d is None:
             raise ValueError("no impact within 4 periods of t")
-        return t_next, -self.e * _flight_velocity(t_next, t, v, self.Gamma)
+        t_next = t + d
+        return t_next, -self.e * flight_velocity(t_next, t, v, self.Gamma)
 
     def impact_map_jacobian(self, t=None, v=None):
         r"""Jacobian of the impact map at (t, v) (default: the periodic orbit).
@@ -659,7 +577,7 @@ class FlatLayer:
             t_next, _ = self.impact_map(t, v)
         G, e = self.Gamma, self.e
         d = t_next - t
-        u = _flight_velocity(t_next, t, v, G)
+        u = flight_velocity(t_next, t, v, G)
         g0 = math.sin(t) - 1.0 / G
         g1 = math.sin(t_next) - 1.0 / G
         dtt = (v + d * g0) / u

@@ -21,14 +21,10 @@ since the launch at :math:`a` with velocity :math:`v`,
     \zeta &= v\tau + 2\sin a\,\sin^2(\tau/2) - \cos a\,(\sin\tau - \tau) - \tau^2/(2\Gamma),
 
 which is the first form of (17)-(18) rearranged so that every term keeps
-its relative accuracy for short flights.  Landings are found by a certified
-search: :math:`[a, a + H]` is cut at the zeros of :math:`g` (where :math:`w`
-is monotone between) and at the zero of :math:`w` on each such piece, so
-:math:`\zeta` is monotone on every piece, holds at most one root there, and a
-root is bracketed by a sign change of the end values (a grazing minimum
-:math:`\zeta = 0` at a piece end counts as a landing).  The root of
-:math:`\zeta/\tau` is found by ``brentq`` to relative accuracy
-:math:`4\epsilon` and polished by Newton steps.
+its relative accuracy for short flights.  Flights and their landings are
+:class:`tps_solver.model.flight.Flight` (the certified landing search: cut at the
+zeros of :math:`g` and :math:`w`, a root per monotone piece, relative accuracy a
+few eps, tested against mpmath).
 
 **Chatter** (:math:`0 < e < 1`).  After an impact at :math:`t_c` with
 rebound velocity :math:`v` and :math:`g_c = g(t_c) < 0` the bounces shrink
@@ -65,113 +61,14 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
+from tps_solver.core import archive
+from tps_solver.model.flight import Flight, gravity, liftoff_index
+
 __all__ = ["ContactOrbit", "sticking_orbit", "touch_orbits", "trace"]
 
 _TWO_PI = 2.0 * math.pi
 _RTOL = 4.0 * np.finfo(float).eps
 _MAX_IMPACTS = 20000
-
-
-# ----------------------------------------------------------------------------- flight formulas
-
-def _omc(x):
-    """1 - cos x without cancellation."""
-    s = math.sin(0.5 * x)
-    return 2.0 * s * s
-
-
-def _smx(x):
-    """sin x - x without cancellation."""
-    if abs(x) < 0.25:
-        x2 = x * x
-        return -x * x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
-            1.0 / 362880.0 - x2 * (1.0 / 39916800.0 - x2 / 6227020800.0)))))
-    return math.sin(x) - x
-
-
-class _Flight:
-    """A flight launched from the plate at ``a`` with velocity ``v`` >= 0."""
-
-    __slots__ = ("a", "v", "G", "sa", "ca")
-
-    def __init__(self, a, v, Gamma):
-        self.a, self.v, self.G = a, v, Gamma
-        self.sa, self.ca = math.sin(a), math.cos(a)
-
-    def w(self, tau):
-        return self.v + self.ca * _omc(tau) + self.sa * math.sin(tau) - tau / self.G
-
-    def z(self, tau):
-        return self.v * tau + self.sa * _omc(tau) - self.ca * _smx(tau) - tau * tau / (2.0 * self.G)
-
-    def z_over_tau(self, tau):
-        return self.v + (self.sa * _omc(tau) - self.ca * _smx(tau)) / tau - tau / (2.0 * self.G)
-
-    def g(self, tau):
-        return self.sa * math.cos(tau) + self.ca * math.sin(tau) - 1.0 / self.G
-
-
-def gravity(t, Gamma):
-    """Plate-frame acceleration g(t) = sin t - 1/Gamma, eq. (16)."""
-    return math.sin(t) - 1.0 / Gamma
-
-
-def _g_zeros(a, H, Gamma):
-    """Sorted local times tau in (0, H) at which g(a + tau) = 0."""
-    if Gamma < 1.0:
-        return []
-    base = math.asin(1.0 / Gamma)
-    out = []
-    k = math.floor((a - math.pi) / _TWO_PI) - 1
-    while base + _TWO_PI * k <= a + H + _TWO_PI:
-        for z in (base + _TWO_PI * k, math.pi - base + _TWO_PI * k):
-            tau = z - a
-            if 0.0 < tau < H:
-                out.append(tau)
-        k += 1
-    return sorted(out)
-
-
-def _monotone_pieces(fl, H):
-    """Cut [0, H] into pieces on which the height of flight ``fl`` is monotone."""
-    breaks = [0.0] + _g_zeros(fl.a, H, fl.G) + [H]
-    pieces = []
-    for p, q in zip(breaks[:-1], breaks[1:]):
-        wp, wq = fl.w(p), fl.w(q)
-        if wp * wq < 0.0:
-            c = brentq(fl.w, p, q, xtol=1e-300, rtol=_RTOL, maxiter=1000)
-            pieces.extend([(p, c), (c, q)])
-        else:
-            pieces.append((p, q))
-    return pieces
-
-
-def _first_landing(fl, H):
-    """Local time in (0, H] of the first return of flight ``fl`` to the plate, or None.
-
-    Requires ``fl.v > 0``, or ``fl.v == 0`` with ``g(a) > 0``.
-    """
-    for i, (p, q) in enumerate(_monotone_pieces(fl, H)):
-        if i == 0:
-            continue  # zeta rises from 0 on the first piece (w >= 0 there)
-        zp = fl.z(p)
-        if zp <= 0.0:
-            return p
-        zq = fl.z(q)
-        if zq <= 0.0:
-            if zq == 0.0:
-                return q
-            tau = brentq(fl.z_over_tau, p, q, xtol=1e-300, rtol=_RTOL, maxiter=1000)
-            for _ in range(3):  # safeguarded Newton polish on zeta
-                d = fl.w(tau)
-                if d == 0.0:
-                    break
-                new = tau - fl.z(tau) / d
-                if not p <= new <= q or new == tau:
-                    break
-                tau = new
-            return tau
-    return None
 
 
 def _tail(v, gam, e, tail_tol):
@@ -234,8 +131,8 @@ def trace(Gamma, e, t_start, v_start, t_end, tail_tol=1e-14, max_impacts=_MAX_IM
     segments, events = [], []
     t, v = t_start, v_start
     for _ in range(max_impacts):
-        fl = _Flight(t, v, Gamma)
-        tau = _first_landing(fl, t_end - t)
+        fl = Flight(t, v, Gamma)
+        tau = fl.first_landing(t_end - t)
         if tau is None:
             segments.append(("flight", t, t_end, v))
             return segments, events, ("horizon", t_end)
@@ -261,17 +158,6 @@ def trace(Gamma, e, t_start, v_start, t_end, tail_tol=1e-14, max_impacts=_MAX_IM
                 return segments, events, ("stick", t1 + D0)
         t = t1
     return segments, events, ("max_impacts", t)
-
-
-def _next_liftoff_index(t, Gamma):
-    """Smallest integer k with asin(1/Gamma) + 2 pi k >= t."""
-    base = math.asin(1.0 / Gamma)
-    k = math.ceil((t - base) / _TWO_PI)
-    while base + _TWO_PI * (k - 1) >= t:
-        k -= 1
-    while base + _TWO_PI * k < t:
-        k += 1
-    return k
 
 
 # ----------------------------------------------------------------------------- orbits
@@ -328,6 +214,16 @@ class ContactOrbit:
                                        for s in tails) / self.period
         self._starts = np.array([s[1] for s in segments])
 
+    def _key(self):
+        return (self.pattern, self.Gamma, self.e, self.M, self.t0, tuple(self.events))
+
+    def __eq__(self, other):
+        """Two orbits are equal when parameters, launch phase and events agree exactly."""
+        return type(other) is type(self) and self._key() == other._key()
+
+    def __hash__(self):
+        return hash(self._key())
+
     def contact_sequence(self):
         """Landings of one period as letters (see :attr:`tps_solver.FlatLayer.contact_sequence`)."""
         flights = [s for s in self.segments if s[0] == "flight"]
@@ -344,6 +240,47 @@ class ContactOrbit:
         while (j > 0 and gravity(times[j - 1], self.Gamma) < 0.0 and rebound[j - 1] > rebound[j]):
             j -= 1
         return "B" * j + "C"
+
+    def landings(self):
+        r"""The landings of one period :math:`[t_0, t_0 + T)`, in time order.
+
+        Returns
+        -------
+        list of tuple
+            ``(t, kind, w_minus, liftoff)``: the landing time, its kind -- ``"touch"``
+            (touch-and-go: a new flight from rest at once), ``"stick"`` (rest until
+            ``liftoff``), ``"bounce"`` (a rebound) or ``"chatter"`` (the first impact of a
+            summed chatter tail, at rest from its accumulation until ``liftoff``) --, the
+            pre-impact velocity :math:`w(t^-)` and the lift-off time (nan unless stick or chatter).
+
+        Examples
+        --------
+        >>> orb, _ = sticking_orbit(4.1, 0.0, 2)
+        >>> [(round(t, 9), k, round(w, 9)) for t, k, w, _ in orb.landings()]
+        [(7.434953167, 'touch', -1.19038202), (12.451615, 'stick', -1.810125689)]
+        >>> orb.landings()[-1][3] == orb.t0 + orb.period
+        True
+        """
+        segs = self.segments
+        out = []
+        for k, (kind, a, b, v) in enumerate(segs):
+            if kind != "flight":
+                continue
+            nxt = segs[(k + 1) % len(segs)]
+            w_minus = Flight(a, v, self.Gamma).w(b - a)
+            if nxt[0] == "stick":
+                out.append((b, "stick", w_minus, nxt[2]))
+            elif nxt[0] == "tail":
+                after = segs[(k + 2) % len(segs)]
+                out.append((b, "chatter", w_minus, after[2] if after[0] == "stick" else math.nan))
+            elif nxt[3] == 0.0:
+                out.append((b, "touch", w_minus, math.nan))
+            else:
+                out.append((b, "bounce", w_minus, math.nan))
+        end = self.t0 + self.period      # a landing at the period's end is the one at t0 (touch orbits)
+        slack = 8.0 * np.finfo(float).eps * (abs(end) + self.period)
+        out = [(self.t0 if t >= end - slack else t, *rest) for t, *rest in out]
+        return sorted(out, key=lambda c: c[0])
 
     # ------------------------------------------------------------------ evaluation
     def _wrap(self, t):
@@ -363,7 +300,7 @@ class ContactOrbit:
             if sel.size == 0 or kind == "stick":
                 continue
             if kind == "flight":
-                fl = _Flight(a, data, self.Gamma)
+                fl = Flight(a, data, self.Gamma)
                 f = fl.w if which == "w" else fl.z
                 out[sel] = [f(x - a) for x in flat[sel]]
             else:  # closed-form chatter tail at constant g
@@ -416,8 +353,8 @@ class ContactOrbit:
         for kind, a, b, v in self.segments:
             if kind != "flight":
                 continue
-            fl = _Flight(a, v, self.Gamma)
-            for p, q in _monotone_pieces(fl, b - a):
+            fl = Flight(a, v, self.Gamma)
+            for p, q in fl.monotone_pieces(b - a):
                 best = max(best, fl.z(p), fl.z(q))
         return best
 
@@ -493,7 +430,7 @@ def sticking_orbit(Gamma, e, M, tail_tol=1e-14, search_periods=8):
                       f"accumulate); no sticking orbit found")
     if end[0] == "horizon":
         return None, f"the node does not stick again within {M + search_periods} periods of a lift-off"
-    k = _next_liftoff_index(end[1], Gamma)
+    k = liftoff_index(end[1], Gamma)
     if k != M:
         return None, f"the sticking orbit has period 2*pi*{k} (M = {k})"
     segs = segs + [("stick", end[1], t0 + T, None)]
@@ -505,8 +442,8 @@ def _touch_landings(Gamma, phi, t_end):
     """Landing times of successive touch-and-go flights from rest at ``phi`` (e = 0), and the end kind."""
     out, t = [], phi
     while True:
-        fl = _Flight(t, 0.0, Gamma)
-        tau = _first_landing(fl, t_end - t)
+        fl = Flight(t, 0.0, Gamma)
+        tau = fl.first_landing(t_end - t)
         if tau is None:
             return out, "horizon"
         t1 = t + tau
@@ -520,7 +457,7 @@ def _touch_multiplier(Gamma, times):
     """Period-map multiplier prod Delta_i g(t_{i-1}) / w(t_i-) of a touch-and-go orbit."""
     mu = 1.0
     for a, b in zip(times[:-1], times[1:]):
-        u = _Flight(a, 0.0, Gamma).w(b - a)
+        u = Flight(a, 0.0, Gamma).w(b - a)
         mu *= (b - a) * gravity(a, Gamma) / u
     return mu
 
@@ -626,3 +563,24 @@ def _build_touch(Gamma, M, t0, n_contacts):
         events += [(t, "impact"), (t, "liftoff")]
     mu = _touch_multiplier(Gamma, times)
     return ContactOrbit("touch", Gamma, 0.0, M, t0, segs, events, [mu, 0.0])
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+def _encode_contact_orbit(orb):
+    return {"pattern": orb.pattern, "Gamma": orb.Gamma, "e": orb.e, "M": orb.M, "t0": orb.t0}
+
+
+def _decode_contact_orbit(d):
+    """Rebuild from the parameters; the launch phase must come back bit for bit."""
+    if d["pattern"] == "touch":
+        candidates = touch_orbits(d["Gamma"], d["M"])
+    else:
+        candidates = [sticking_orbit(d["Gamma"], d["e"], d["M"])[0]]
+    for orb in candidates:
+        if orb is not None and orb.t0 == d["t0"]:
+            return orb
+    raise ValueError(f"the stored {d['pattern']!r} orbit (Gamma = {d['Gamma']}, e = {d['e']}, M = {d['M']}, "
+                     f"t0 = {d['t0']!r}) is not an orbit of this version (the file is not from it)")
+
+
+archive.register("ContactOrbit", ContactOrbit, encode=_encode_contact_orbit, decode=_decode_contact_orbit)

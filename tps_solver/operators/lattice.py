@@ -33,7 +33,7 @@ import scipy.linalg
 
 from tps_solver.core import archive
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive
-from tps_solver.core.budget import check_cost, lattice_cost
+from tps_solver.core.costs import check_cost, lattice_cost
 
 __all__ = ["Lattice", "lattice_eigenvalues"]
 
@@ -43,7 +43,7 @@ _GRIDS = ("uniform", "quasilog")
 
 
 def _check_size(n_nodes):
-    """Refuse a lattice whose dense n x n matrices are out of reach (tps_solver.core.budget)."""
+    """Refuse a lattice whose dense n x n matrices are out of reach (tps_solver.core.costs)."""
     check_cost("Lattice", "n_nodes", n_nodes, *lattice_cost(n_nodes),
                hint="the Laplacian and the flux matrix are dense n_nodes x n_nodes arrays")
 
@@ -153,7 +153,7 @@ class Lattice:
         n_nodes : int
             Number of nodes, >= 3 (spacing ``length / (n_nodes - 1)``).  The Laplacian is
             stored dense: a lattice whose n_nodes x n_nodes matrices do not fit in memory
-            raises ``ValueError`` before anything is allocated (:mod:`tps_solver.core.budget`).
+            raises ``ValueError`` before anything is allocated (:mod:`tps_solver.core.costs`).
         length : float
             Total length > 0.  A kink lives on the full line ``x in [-length/2, length/2]``.
         boundary : {"neumann", "pinned"}

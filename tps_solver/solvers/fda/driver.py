@@ -11,7 +11,7 @@ import numpy as np
 
 from tps_solver.core.checks import check_array, check_choice, check_int, check_nonnegative, check_positive, check_restitution
 from tps_solver.core.bunch import Bunch
-from tps_solver.core.budget import blas_threads, small_dense
+from tps_solver.core.costs import blas_threads, small_dense
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda.common import SimulationResult, check_time_window, stack_samples
 from tps_solver.solvers.fda.events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
@@ -101,11 +101,11 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
 
     Notes
     -----
-    On lattices of at most :data:`tps_solver.core.budget.SMALL_DENSE` nodes the integration runs
-    with one BLAS thread (:func:`tps_solver.core.budget.blas_threads`, through threadpoolctl when it
+    On lattices of at most :data:`tps_solver.core.costs.SMALL_DENSE` nodes the integration runs
+    with one BLAS thread (:func:`tps_solver.core.costs.blas_threads`, through threadpoolctl when it
     is installed): the dense kernels are small and a second thread only costs (measured on a
     2-core machine: the 200-node radial flat-layer benchmark, 0.018 s per period on one thread
-    against 0.036 s on two; see :mod:`tps_solver.core.budget`).
+    against 0.036 s on two; see :mod:`tps_solver.core.costs`).
 
     Examples
     --------

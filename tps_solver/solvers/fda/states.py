@@ -32,21 +32,29 @@ def flat_state(lattice, flat, t):
     return np.full(n, float(flat.velocity(t))), np.full(n, float(flat.height(t)))
 
 
-def kink_state(lattice, flat, t, width=2.0):
-    r"""The paper's kink initial condition at time ``t`` (Sec. 4.3.1).
+def kink_state(lattice, flat, t=None, width=2.0):
+    r"""The kink initial condition at time ``t`` (Sec. 4.3.1): the package's one kink start.
 
     Two flat layers out of phase by half a period -- phase ``t`` for
     :math:`x < 0` and ``t + T/2`` for :math:`x > 0` -- joined by linear
-    interpolation of height and velocity across ``|x| < width/2``.
+    interpolation of height and velocity across ``|x| < width/2``.  ``flat`` is the far
+    field of any pattern: a :class:`~tps_solver.FlatLayer` (bouncing, sticking, touch-and-go),
+    the e = 0 :class:`~tps_solver.model.sticking.ContactOrbit` of
+    :func:`~tps_solver.model.sticking.sticking_orbit`, or anything with ``velocity(t)``,
+    ``height(t)`` and ``period``.  Used by :func:`~tps_solver.lattice_kink`, the impact-and-stick
+    TPS (:func:`tps_solver.solvers.tps.stick.kink_state`) and the shooting guesses of validation.
 
     Parameters
     ----------
     lattice : Lattice
         Planar lattice (typically ``boundary="pinned"`` on ``[-L, L]``).
-    flat : FlatLayer
-    t : float
+    flat : FlatLayer or ContactOrbit
+    t : float, optional
+        Time of the state (default: ``flat.t0 + 0.5``, half a time unit after the impact
+        phase of a FlatLayer or the lift-off of a sticking orbit).
     width : float
-        Width of the linear transition, >= 0.
+        Width of the linear transition, >= 0; 0 is a step (a node at x = 0 takes the
+        ``t + T/2`` state).
 
     Returns
     -------
@@ -59,8 +67,16 @@ def kink_state(lattice, flat, t, width=2.0):
     >>> w, z = kink_state(Lattice.planar(n_nodes=5, length=8.0), fl, fl.t0 + 1.0)
     >>> bool(z[0] == fl.height(fl.t0 + 1.0) and z[-1] == fl.height(fl.t0 + 1.0 + fl.period / 2))
     True
+
+    The e = 0 sticking far field, a step:
+
+    >>> from tps_solver.model.sticking import sticking_orbit
+    >>> orb, _ = sticking_orbit(4.1, 0.0, 2)
+    >>> w, z = kink_state(Lattice.planar(n_nodes=5, length=8.0), orb, width=0.0)
+    >>> bool(w[1] == orb.velocity(orb.t0 + 0.5) and w[2] == orb.velocity(orb.t0 + 0.5 + orb.period / 2))
+    True
     """
-    t = check_real(t, "t")
+    t = float(flat.t0) + 0.5 if t is None else check_real(t, "t")
     width = check_nonnegative(width, "width")
     x = lattice.nodes
     wl, zl = float(flat.velocity(t)), float(flat.height(t))
@@ -68,7 +84,7 @@ def kink_state(lattice, flat, t, width=2.0):
     if width > 0.0:
         theta = np.clip(x / width + 0.5, 0.0, 1.0)
     else:
-        theta = (x > 0).astype(float)
+        theta = (x >= 0).astype(float)
     return wl + theta * (wr - wl), zl + theta * (zr - zl)
 
 

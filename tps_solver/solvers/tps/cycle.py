@@ -33,14 +33,13 @@ import math
 import time
 
 import numpy as np
-from scipy.linalg import eigh
 
 from tps_solver.core import archive as io
 from tps_solver.core import defaults
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
-from tps_solver.core.budget import blas_threads, check_cost, cycle_cost, small_dense
-from tps_solver.model.flight import phi1, taylor_tail
+from tps_solver.core.costs import blas_threads, check_cost, cycle_cost, small_dense
 from tps_solver.operators.lattice import Lattice
+from tps_solver.operators.modal import ModalBasis, kernel, kernel_integral
 from tps_solver.core.orbit import PeriodicOrbit
 from tps_solver.solvers.tps.engine import continuation as run_continuation, newton
 from tps_solver.solvers.tps.problems import bouncing_far_field, decoupled_spacing
@@ -51,35 +50,6 @@ from tps_solver.solvers.tps.solvers import lattice_initial_tc, next_steps
 BLOCK_BYTES = 512e6
 
 __all__ = ["LatticeCycle", "solve_lattice_cycle"]
-
-
-def _H(lam, tau, T):
-    """H(lambda, tau) for tau in [0, T) (mean of the jump at tau = 0); lam <= 0, shape broadcast.
-
-    With mu = lambda T and x = tau/T:  H = [f2(mu) - x phi1(mu x)] / phi1(mu), where
-    phi1(z) = (e^z - 1)/z and f2(z) = (e^z - 1 - z)/z^2 -- free of the 1/mu cancellation of
-    the textbook form and equal to 1/2 - x at mu = 0.  At x = 0 the mean of the jump,
-    f2/phi1 - 1/2, is returned.  The factors of mu alone are evaluated on ``lam``'s own
-    shape (once per mode), only phi1(mu x) on the broadcast shape.
-    """
-    lam, tau = np.asarray(lam, dtype=float), np.asarray(tau, dtype=float)
-    mu = lam * T
-    x = tau / T
-    p1 = phi1(mu)
-    f2 = taylor_tail(mu, 2)
-    val = (f2 - x * phi1(mu * x)) / p1
-    return np.where(tau == 0.0, f2 / p1 - 0.5, val)
-
-
-def _H_int(lam, tau, T):
-    """Zero-mean antiderivative of H in tau (continuous, T-periodic):
-    T [f2(mu) x - x^2 f2(mu x) - (f2(mu)/2 - f3(mu))] / phi1(mu)."""
-    lam, tau = np.asarray(lam, dtype=float), np.asarray(tau, dtype=float)
-    mu = lam * T
-    x = tau / T
-    f2 = taylor_tail(mu, 2)
-    f3 = taylor_tail(mu, 3)
-    return T * (f2 * x - x * x * taylor_tail(mu * x, 2) - (0.5 * f2 - f3)) / phi1(mu)
 
 
 class LatticeCycle(PeriodicOrbit):
@@ -150,7 +120,7 @@ class LatticeCycle(PeriodicOrbit):
 
     def _velocity_block(self, t):
         tau = np.mod(t[:, None] - self.tc[None, :], self.period)      # (nt, k)
-        Hk = _H(self.eigenvalues[None, None, :], tau[:, :, None], self.period)  # (nt, k, p)
+        Hk = kernel(self.eigenvalues[None, None, :], tau[:, :, None], self.period)  # (nt, k, p)
         # w_j = -cos t + J sum_k sum_p V_jp H_p(tau_k) Vinv_pk
         coef = np.einsum("tkp,pk->tp", Hk, self.modes_inv)
         w = -np.cos(t)[:, None] + self.J * coef @ self.modes.T
@@ -176,7 +146,7 @@ class LatticeCycle(PeriodicOrbit):
 
     def _height_block(self, t):
         tau = np.mod(t[:, None] - self.tc[None, :], self.period)
-        Hk = _H_int(self.eigenvalues[None, None, :], tau[:, :, None], self.period)
+        Hk = kernel_integral(self.eigenvalues[None, None, :], tau[:, :, None], self.period)
         coef = np.einsum("tkp,pk->tp", Hk, self.modes_inv)
         return -np.sin(t)[:, None] + self.J * coef @ self.modes.T
 
@@ -196,13 +166,8 @@ class CycleProblem:
     """F(tc) = 0 for the exact lattice cycle (the problem protocol of :mod:`tps_solver.solvers.tps.engine`)."""
 
     def __init__(self, lattice, flat, coupling):
-        D = np.asarray(lattice.volumes, dtype=float)
-        S = np.asarray(lattice.flux, dtype=float)
-        sq = np.sqrt(D)
-        lam, U = eigh(S / np.outer(sq, sq))
-        self.lam = coupling * np.minimum(lam, 0.0)
-        self.V = U / sq[:, None]
-        self.Vinv = U.T * sq[None, :]
+        modes = ModalBasis(lattice, coupling)
+        self.lam, self.V, self.Vinv = modes.lam, modes.V, modes.Vinv
         self.T = flat.period
         self.J = flat.period / flat.Gamma
         self.t0 = flat.t0
@@ -219,7 +184,7 @@ class CycleProblem:
         H = None
         for rows in blocks:
             tau = np.mod(tc[rows, None] - tc[None, :], self.T)                  # (j, k)
-            Hjk = _H(self.lam[None, None, :], tau[:, :, None], self.T)          # (j, k, p)
+            Hjk = kernel(self.lam[None, None, :], tau[:, :, None], self.T)          # (j, k, p)
             if len(blocks) == 1:
                 H = Hjk
             if derivative:
@@ -281,8 +246,8 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
     Notes
     -----
     The work is O(n_nodes^3) per Newton step; the cost is estimated first and a lattice
-    out of reach raises ``ValueError`` (:mod:`tps_solver.core.budget`).  The small dense
-    kernels run on one BLAS thread (:func:`tps_solver.core.budget.blas_threads`).
+    out of reach raises ``ValueError`` (:mod:`tps_solver.core.costs`).  The small dense
+    kernels run on one BLAS thread (:func:`tps_solver.core.costs.blas_threads`).
 
     Examples
     --------

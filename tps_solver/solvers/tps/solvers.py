@@ -62,7 +62,7 @@ import numpy as np
 
 from tps_solver.core import defaults
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
-from tps_solver.core.budget import check_cost, tps_cost
+from tps_solver.core.costs import check_cost, tps_cost
 from tps_solver.model.harmonics import centred, evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.tps.checks import physical_checks
@@ -96,7 +96,7 @@ def _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign
 
 
 def _check_cost(what, N, n_nodes, total_nodes=None):
-    """Refuse before allocating when the grid or the truncation is out of reach (tps_solver.core.budget).
+    """Refuse before allocating when the grid or the truncation is out of reach (tps_solver.core.costs).
 
     ``total_nodes``: the nodes of the result (a kink mirrors its ``n_nodes`` half-line nodes).
     """
@@ -374,7 +374,7 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         the fold of the flat orbit, where no branch starts.
     n_harmonics : int
         Truncation N of the Fourier series (38)-(39).  The cost is estimated
-        first; a call out of reach raises ``ValueError`` (:mod:`tps_solver.core.budget`).
+        first; a call out of reach raises ``ValueError`` (:mod:`tps_solver.core.costs`).
     tc_initial : None, array_like of float (n_nodes,), or callable
         Initial contact times on the solved nodes ``x > 0``.  ``None``: the
         step guess ``tc = t0`` (with the mirrored side at ``t0 + T/2``).

@@ -98,7 +98,8 @@ from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_or
 from tps_solver.solvers.tps.stick_pattern import (StickPattern, check_pattern, check_with_fda, kink_state,
                                                   make_pattern, pattern_from_fda, pattern_from_orbit,
                                                   same_lattice)
-from tps_solver.solvers.tps.stick_problem import Modal, StickProblem, flat_functions, flat_stick_orbit
+from tps_solver.operators.modal import ModalBasis
+from tps_solver.solvers.tps.stick_problem import StickProblem, flat_stick_orbit
 
 __all__ = ["StickSolution", "StickPattern", "flat_stick_orbit", "solve_stick_flat", "check_with_fda",
            "solve_stick_lattice", "pattern_from_fda", "pattern_from_orbit", "kink_state"]
@@ -487,10 +488,10 @@ def solve_stick_flat(Gamma=4.1, M=2, e=0.0, n_harmonics=32, *, n_nodes=1, length
                         np.tile(-orb.w_minus + perturbation, n_nodes),
                         np.tile(orb.tau + perturbation, n_nodes), np.full(node.size, -1),
                         np.zeros(node.size, dtype=int), n_nodes, orb.period)
-    sol = _solve_pattern(Modal(lat, orb.period), pat, lat.nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
+    sol = _solve_pattern(ModalBasis(lat, period=orb.period), pat, lat.nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
                          n_harmonics)
     sol.exact = orb
-    w, z = flat_functions(orb)
+    w, z = orb.orbit.velocity, orb.orbit.height
     sol._flat_state = (w, z)
     return sol
 
@@ -605,7 +606,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
             raise ValueError("pattern must be for this lattice (n_nodes) and period 2 pi M")
         check_pattern(pattern)
         source = "user pattern"
-    modal = Modal(lattice, T)
+    modal = ModalBasis(lattice, period=T)
     sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
                          max_iter, n_harmonics)
     sol.fda = run
@@ -647,7 +648,7 @@ def _validate_stick(f):
 
 def _restore_stick(sol):
     if "exact" in sol:
-        sol._flat_state = flat_functions(sol.exact)
+        sol._flat_state = (sol.exact.orbit.velocity, sol.exact.orbit.height)
 
 
 archive.register("StickSolution", StickSolution, transient=("_flat_state",), validate=_validate_stick,

@@ -14,7 +14,8 @@ from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
 from tps_solver.solvers.shooting.periodic import ShootingOrbit
-from tps_solver.solvers.tps.stick_problem import KINDS, flat_functions, flat_stick_orbit
+from tps_solver.solvers.fda.states import kink_state as fda_kink_state
+from tps_solver.solvers.tps.stick_problem import KINDS, flat_stick_orbit
 
 __all__ = ["StickPattern", "kink_state", "pattern_from_fda", "pattern_from_orbit", "check_with_fda"]
 
@@ -109,6 +110,9 @@ def check_pattern(p):
 def kink_state(lattice, Gamma, M=2, t=None):
     r"""A kink start for e = 0: the flat orbit for x < 0, the same half a period later for x >= 0.
 
+    The call form of the impact-and-stick TPS for :func:`tps_solver.solvers.fda.states.kink_state`
+    (the one kink start) with the e = 0 sticking far field and a step (``width=0``).
+
     Parameters
     ----------
     lattice : tps_solver.Lattice
@@ -140,16 +144,12 @@ def kink_state(lattice, Gamma, M=2, t=None):
     >>> w0.shape, bool(np.all(zeta0 >= 0))
     ((5,), True)
     """
-    orb = flat_stick_orbit(Gamma, M)
-    T = orb.period
     if M % 2:
         raise ValueError(f"M must be even for a kink start, got {M}")
+    orb = flat_stick_orbit(Gamma, M)
     t = orb.t_liftoff + 0.5 if t is None else check_real(t, "t")
-    w, z = flat_functions(orb)
-    x = np.asarray(lattice.nodes, dtype=float)
-    wl, zl = w(t), z(t)
-    wr, zr = w(t + T / 2), z(t + T / 2)
-    return t, np.where(x < 0, wl, wr), np.where(x < 0, zl, zr)
+    w0, zeta0 = fda_kink_state(lattice, orb.orbit, t, width=0.0)
+    return t, w0, zeta0
 
 
 def pattern_from_fda(run, lattice, period, t_window=None, tol=1e-9):

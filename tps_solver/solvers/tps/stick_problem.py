@@ -1,26 +1,27 @@
 r"""The impact-and-stick TPS problem: the all-orders lattice kernel and the residual of a contact pattern.
 
 The formulation is the one of :mod:`tps_solver.solvers.tps.stick` (which solves it):
-:class:`Modal` is the eigen-decomposition of the Neumann lattice operator with the
-all-orders kernels :func:`H`, :func:`H_int`; :class:`StickProblem` evaluates the
+The eigen-decomposition of the Neumann lattice operator and the all-orders kernels are
+:class:`~tps_solver.operators.modal.ModalBasis`, :func:`~tps_solver.operators.modal.kernel`
+and :func:`~tps_solver.operators.modal.kernel_integral`; :class:`StickProblem` evaluates the
 residual and Jacobian of the unknowns of a :class:`~tps_solver.solvers.tps.stick_pattern.StickPattern`.
-:func:`flat_stick_orbit` is the completely inelastic flat layer in closed form.
+:func:`flat_stick_orbit` reads the completely inelastic flat layer of
+:mod:`tps_solver.model.sticking` in the TPS's alphabet.
 """
 import math
 
 import numpy as np
 from numpy.polynomial.legendre import leggauss, legvander
-from scipy.optimize import brentq
-from scipy.linalg import eigh
 
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
+from tps_solver.model.sticking import sticking_orbit
+from tps_solver.operators.modal import kernel, kernel_integral
 
 __all__ = ["flat_stick_orbit"]
 
 KINDS = ("bounce", "stick")
-_ZERO_MODE = 1e-10          # |lambda T| below this: the zero mode's closed form
 _COLLAPSE = 1e-10           # stick intervals shorter than this: an impact with w+ = 0
 _BREAK_MARGIN = 1e-12      # neighbour events closer than this to an end do not cut a segment
 _MEDIUM = 1e-6              # segments shorter than this: at most 2 reaction terms (was 1e-3: too coarse at dx = 0.5)
@@ -31,30 +32,6 @@ _CHUNK = 2 ** 22            # elements of the (requests, segments, modes) tempor
 
 
 # ----------------------------------------------------------------- flat layer
-def flat_flight(t0, Gamma):
-    """Height and velocity of a flight from rest on the plate at t0 (flat layer, (17))."""
-    c0, s0 = math.cos(t0), math.sin(t0)
-    z = lambda t: c0 * (t - t0) + s0 - math.sin(t) - (t - t0) ** 2 / (2 * Gamma)
-    w = lambda t: c0 - math.cos(t) - (t - t0) / Gamma
-    return z, w
-
-
-def next_landing(t0, Gamma, horizon):
-    """First root of zeta after t0 of a flight from rest at t0 (bracketed on a fine grid)."""
-    z, _ = flat_flight(t0, Gamma)
-    # zeta ~ g'(t0) (t - t0)^3 / 6 near a smooth lift-off: start the scan a little later
-    ts = np.linspace(t0, t0 + horizon, int(horizon * 400) + 2)[1:]
-    vals = np.array([z(t) for t in ts])
-    start = 1
-    while start < ts.size and vals[start - 1] <= 0.0 and abs(vals[start - 1]) < 1e-12:
-        start += 1
-    neg = np.nonzero(vals[start:] < 0.0)[0]
-    if neg.size == 0:
-        return None
-    i = neg[0] + start
-    return brentq(z, ts[i - 1], ts[i], xtol=1e-15, rtol=4 * np.finfo(float).eps, maxiter=200)
-
-
 def flat_stick_orbit(Gamma, M=2):
     r"""The completely inelastic flat layer (e = 0): contacts, kinds and lift-off, in closed form.
 
@@ -62,9 +39,11 @@ def flat_stick_orbit(Gamma, M=2):
     :math:`\cos t_L > 0`; flight (17) with :math:`W_0 = 0`,
     :math:`w = \cos t_L - \cos t - (t - t_L)/\Gamma`; a landing where
     :math:`g > 0` is a touch-and-go (a new flight from rest), the first landing
-    where :math:`g \le 0` ends in sticking until the next lift-off phase.  The
-    landing times are roots of the flight equation, found by Brent's method to
-    rounding.
+    where :math:`g \le 0` ends in sticking until the next lift-off phase.  This is the
+    e = 0 :func:`tps_solver.model.sticking.sticking_orbit` (certified landings,
+    :class:`tps_solver.model.flight.Flight`) read in the TPS's alphabet
+    (:data:`KINDS`: a touch-and-go is a ``"bounce"`` with :math:`w^+ = 0`); an orbit whose
+    period divides :math:`2\pi M` is repeated.
 
     Parameters
     ----------
@@ -79,7 +58,9 @@ def flat_stick_orbit(Gamma, M=2):
         ``t_liftoff`` (float, in [0, 2 pi)), ``t`` (contact times, ndarray of float,
         shape (K,), increasing, in (t_L, t_L + T)), ``kind`` (ndarray of str, shape
         (K,)), ``w_minus`` (pre-impact velocities, shape (K,)), ``tau`` (lift-off
-        after each contact, nan for a bounce), ``period``.
+        after each contact, nan for a bounce), ``period``, ``Gamma``, ``M`` and ``orbit``
+        (the :class:`~tps_solver.model.sticking.ContactOrbit`; its ``velocity(t)`` and
+        ``height(t)``, zeta = 0 at the contacts, are the orbit's w and zeta).
 
     Raises
     ------
@@ -98,91 +79,27 @@ def flat_stick_orbit(Gamma, M=2):
     if Gamma <= 1.0:
         raise ValueError(f"Gamma must be > 1 for the layer to lift off, got {Gamma}")
     T = 2 * math.pi * M
-    tL = math.asin(1.0 / Gamma)
-    ts, kinds, wm, taus = [], [], [], []
-    t_start = tL
-    while True:
-        t_land = next_landing(t_start, Gamma, T + 1.0)
-        if t_land is None or t_land >= tL + T:
-            raise ValueError(f"the e = 0 flat orbit at Gamma = {Gamma} does not close after "
-                             f"M = {M} forcing cycles (no landing before t_L + T)")
-        _, w = flat_flight(t_start, Gamma)
-        ts.append(t_land)
-        wm.append(w(t_land))
-        if math.sin(t_land) - 1.0 / Gamma > 0.0:
-            kinds.append("bounce")
-            taus.append(math.nan)
-            t_start = t_land
-            continue
-        kinds.append("stick")
-        cycles = math.ceil((t_land - tL) / (2 * math.pi))
-        tau = tL + 2 * math.pi * cycles
-        taus.append(tau)
-        if abs(tau - (tL + T)) < 1e-12:
+    orbit, info = sticking_orbit(Gamma, 0.0, M)
+    k = M
+    for d in range(M - 1, 0, -1):       # an orbit whose period divides 2 pi M, repeated
+        if orbit is not None:
             break
-        if tau > tL + T:
-            raise ValueError(f"the e = 0 flat orbit at Gamma = {Gamma} does not close after "
-                             f"M = {M} forcing cycles")
-        t_start = tau
-    return Bunch(t_liftoff=tL, t=np.array(ts), kind=np.array(kinds), w_minus=np.array(wm),
-                 tau=np.array(taus), period=T, Gamma=Gamma, M=M)
-
-
-# ------------------------------------------------------------------ kernels
-def H(lam, tau, T):
-    """Mean-free periodic response of y' = lam y + delta_T - 1/T (all Fourier orders)."""
-    z = lam * T
-    small = np.abs(z) < _ZERO_MODE
-    zs = np.where(small, -1.0, z)
-    full = np.exp(np.where(small, 0.0, lam) * tau) / (-np.expm1(zs)) + 1.0 / zs
-    return np.where(small, 0.5 - tau / T, full)
-
-
-def H_int(lam, tau, T):
-    """An antiderivative of H in tau, periodic (continuous at tau = 0, T)."""
-    small = np.abs(lam * T) < _ZERO_MODE
-    ls = np.where(small, 1.0, lam)
-    full = (H(lam, tau, T) - 0.5 + tau / T) / ls
-    return np.where(small, tau / 2 - tau * tau / (2 * T), full)
-
-
-class Modal:
-    """Eigen-decomposition A = V diag(lam) V^-1 of a Neumann lattice operator, and the kernels.
-
-    Both kernels are ``K_p(tau) = A_p e^{lam_p tau} + B_p + C_p tau + D_p tau^2`` per mode:
-    :func:`H` (``W=False``) and its periodic antiderivative :func:`H_int` (``W=True``).
-    """
-
-    def __init__(self, lattice, period, coupling=1.0):
-        self.inputs = {"lattice": lattice, "period": period, "coupling": coupling}   # for the file codec
-        D = np.asarray(lattice.volumes, dtype=float)
-        S = np.asarray(lattice.flux, dtype=float)
-        sq = np.sqrt(D)
-        lam, U = eigh(S / np.outer(sq, sq))
-        self.lam = coupling * np.minimum(lam, 0.0)
-        self.V = U / sq[:, None]
-        self.Vinv = U.T * sq[None, :]
-        self.A = coupling * np.asarray(lattice.operator, dtype=float)
-        self.n = D.size
-        T = float(period)
-        lam = self.lam
-        zero = np.abs(lam * T) < _ZERO_MODE
-        ls = np.where(zero, -1.0, lam)
-        alpha = np.where(zero, 0.0, 1.0 / (-np.expm1(ls * T)))
-        beta = np.where(zero, 0.5, 1.0 / (ls * T))
-        self._tables = {
-            False: (alpha, beta, np.where(zero, -1.0 / T, 0.0), np.zeros_like(lam)),
-            True: (np.where(zero, 0.0, alpha / ls), np.where(zero, 0.0, (beta - 0.5) / ls),
-                   np.where(zero, 0.5, 1.0 / (ls * T)), np.where(zero, -0.5 / T, 0.0)),
-        }
-        self._poly = {W: tuple(self.V @ (k[:, None] * self.Vinv) for k in tab[1:])
-                      for W, tab in self._tables.items()}
-
-    def table(self, W):
-        return self._tables[bool(W)]
-
-    def poly(self, W):
-        return self._poly[bool(W)]
+        if M % d == 0:
+            orbit, _ = sticking_orbit(Gamma, 0.0, d)
+            k = d
+    if orbit is None:
+        raise ValueError(f"the e = 0 flat orbit at Gamma = {Gamma} does not close after "
+                         f"M = {M} forcing cycles ({info})")
+    ts, kinds, wm, taus = [], [], [], []
+    for rep in range(M // k):
+        shift = 2 * math.pi * k * rep
+        for t, kind, w_minus, lift in orbit.landings():
+            ts.append(t + shift)
+            kinds.append("bounce" if kind == "touch" else kind)
+            wm.append(w_minus)
+            taus.append(lift + shift)
+    return Bunch(t_liftoff=orbit.t0, t=np.array(ts), kind=np.array(kinds), w_minus=np.array(wm),
+                 tau=np.array(taus), period=T, Gamma=Gamma, M=M, orbit=orbit)
 
 
 # ------------------------------------------------------------------ patterns
@@ -372,12 +289,12 @@ class StickProblem:
             r = np.nonzero(req_W == W)[0]
             if r.size == 0:
                 continue
-            kA = md.table(W)[0]
+            kA = md.separable_table(W)[0]
             j = req_node[r]
             ex = np.exp(md.lam[None, None, :] * tau[r][:, :, None])        # (E, X, P)
             VA = md.V[j] * (kA * (md.lam if deriv else 1.0))[None, :]
             core = np.einsum("ep,exp,px->ex", VA, ex, md.Vinv[:, i])
-            MB, MC, MD = md.poly(W)
+            MB, MC, MD = md.separable_poly(W)
             tr = tau[r]
             if deriv:
                 out[r] = core + MC[j][:, i] + 2 * MD[j][:, i] * tr
@@ -432,12 +349,12 @@ class StickProblem:
             r = np.nonzero(req_W == W)[0]
             if r.size == 0:
                 continue
-            kA = md.table(W)[0]
+            kA = md.separable_table(W)[0]
             Gx = np.einsum("xq,xqp,xqm->xmp", wts, ex_u, Fv) * (kA[None, :] * md.Vinv[:, i].T)[:, None, :]
             j = req_node[r]
             ed = np.exp(md.lam[None, None, :] * dd[r][:, :, None])
             val = np.einsum("ep,exp,xmp->exm", md.V[j], ed, Gx)
-            MB, MC, MD = md.poly(W)
+            MB, MC, MD = md.separable_poly(W)
             mb, mc, mdd = MB[j][:, i][..., None], MC[j][:, i][..., None], MD[j][:, i][..., None]
             dr = dd[r][..., None]
             val += (mb * mu[0][None] + mc * (dr * mu[0][None] + mu[1][None])
@@ -461,11 +378,13 @@ class StickProblem:
                 m = req_W[er] == W
                 if not np.any(m):
                     continue
-                kA, kB, kC, kD = md.table(W)
-                ex = np.exp(md.lam[None, None, :] * tau[m][:, :, None])
+                lt = (md.lam[None, None, :], tau[m][:, :, None], T)
+                if W:   # the separable tables' antiderivative: zero-mean except the zero mode's (+T/12)
+                    K = kernel_integral(*lt) + np.where(md.zero_modes(), T / 12.0, 0.0)
+                else:
+                    K = kernel(*lt, at_jump="right")
                 coefp = md.V[jn[m]] * md.Vinv[:, inode[m]].T
-                tm = tau[m][..., None]
-                Rk[m] = np.einsum("np,nqp->nq", coefp, kA * ex + kB + kC * tm + kD * tm * tm)
+                Rk[m] = np.einsum("np,nqp->nq", coefp, K)
             out[er, xr] = np.einsum("nq,nq,nqm->nm", Rk, wsq, Fq)
         return out
 
@@ -611,46 +530,7 @@ class StickProblem:
 
 
 # ------------------------------------------------------------------ result
-def flat_functions(orb):
-    """Vectorised closed-form w(t), zeta(t) of the flat e = 0 orbit (zeta = 0 at the first contact)."""
-    T, G, tL = orb.period, orb.Gamma, orb.t_liftoff
-    starts = np.concatenate([[tL], orb.t[orb.kind == "bounce"]])
-    ends = orb.t
-    # flights: [starts[k], ends[k]) with starts[0] = tL, then each bounce restarts from rest
-    flights = []
-    s = tL
-    for k in range(orb.t.size):
-        flights.append((s, orb.t[k]))
-        if orb.kind[k] == "bounce":
-            s = orb.t[k]
-        else:
-            s = orb.tau[k]
-    del starts, ends
-
-    def w(t):
-        t = np.asarray(t, dtype=float)
-        ph = tL + np.mod(t - tL, T)
-        out = np.zeros_like(ph)
-        for a, b in flights:
-            m = (ph >= a) & (ph < b)
-            out[m] = np.cos(a) - np.cos(ph[m]) - (ph[m] - a) / G
-        return out
-
-    def z(t):
-        t = np.asarray(t, dtype=float)
-        ph = tL + np.mod(t - tL, T)
-        out = np.zeros_like(ph)
-        for a, b in flights:
-            m = (ph >= a) & (ph < b)
-            d = ph[m] - a
-            out[m] = np.cos(a) * d + np.sin(a) - np.sin(ph[m]) - d * d / (2 * G)
-        return out
-
-    return w, z
-
-
 
 
 # ------------------------------------------------------------------ file codecs (tps_solver.core.archive)
-archive.register("Modal", Modal, encode=lambda m: dict(m.inputs), decode=lambda d: Modal(**d))
 archive.register("StickProblem", StickProblem, encode=lambda p: dict(p.inputs), decode=lambda d: StickProblem(**d))

@@ -1,4 +1,4 @@
-r"""Cost before computing: memory and time estimates, refusals, BLAS threads, progress.
+r"""Cost before computing: memory and time estimates, refusals, BLAS threads.
 
 Estimates and refusals
 ----------------------
@@ -40,11 +40,7 @@ runs unchanged).  :func:`~tps_solver.simulate`, :func:`~tps_solver.check_stabili
 and :func:`~tps_solver.solve_lattice_cycle` run under ``blas_threads(1)`` when the
 lattice has at most :data:`SMALL_DENSE` nodes; nested blocks cost nothing.
 
-Progress
---------
-:class:`Progress` turns the callbacks of the long-running calls into a progress
-display: a ``tqdm`` bar when tqdm is installed, ``logging`` lines (logger
-``tps_solver``) otherwise.
+The progress display is :class:`tps_solver.core.progress.Progress`.
 
 Examples
 --------
@@ -57,15 +53,13 @@ Traceback (most recent call last):
 ValueError: n_harmonics = 1000000 is out of reach for solve_kink: estimated ...
 """
 import contextlib
-import logging
 import os
 import sys
 
 __all__ = ["check_cost", "memory_limit", "time_limit", "set_limits", "tps_cost", "lattice_cost",
-           "cycle_cost", "harmonics_cost", "blas_threads", "small_dense", "SMALL_DENSE", "Progress",
+           "cycle_cost", "harmonics_cost", "blas_threads", "small_dense", "SMALL_DENSE",
            "format_bytes", "format_seconds"]
 
-_LOG = logging.getLogger("tps_solver")
 
 #: Lattices up to this many nodes run their dense kernels with one BLAS thread (one thread was
 #: faster at every size measured, up to 800; see the module docstring).
@@ -244,7 +238,7 @@ def check_cost(what, parameter, value, nbytes, seconds, hint=""):
             f"{parameter} = {value!r} is out of reach for {what}: estimated {', '.join(over)} "
             f"(estimate {format_bytes(nbytes)}, {format_seconds(seconds)}); lower {parameter}"
             + (f" ({hint})" if hint else "")
-            + ", or raise the limits with tps_solver.core.budget.set_limits(memory=..., time=...)")
+            + ", or raise the limits with tps_solver.core.costs.set_limits(memory=..., time=...)")
     return nbytes, seconds
 
 
@@ -389,82 +383,4 @@ def _blas_controller():
             return None
         _CONTROLLER[:] = [ThreadpoolController(), len(sys.modules)]
     return _CONTROLLER[0]
-
-
-# ------------------------------------------------------------------- progress
-class Progress:
-    """A progress display for the callbacks of long-running calls (tqdm, else logging).
-
-    Parameters
-    ----------
-    desc : str
-        Label of the bar or of the log lines.
-    total : float, optional
-        Total for fraction-based callbacks (default 1.0).
-    enabled : bool
-        ``False``: the callbacks do nothing (quiet mode).
-
-    Use :meth:`newton` as the ``callback`` of the TPS solvers and of
-    :func:`~tps_solver.solve_lattice_cycle` (``callback(iteration, tc, residual)``),
-    :meth:`fraction` as the ``callback`` of :func:`~tps_solver.simulate` and
-    :func:`~tps_solver.check_stability` (``callback(progress)`` with ``progress.fraction``).
-
-    Examples
-    --------
-    >>> with Progress("demo", enabled=False) as bar:
-    ...     bar.newton(1, None, 1e-3)
-    """
-
-    def __init__(self, desc, total=1.0, enabled=True):
-        self.desc, self.total, self.enabled = desc, float(total), bool(enabled)
-        self.bar, self._last_log = None, -1.0
-        self._steps = 0
-        self._opened = False
-
-    def _open(self):
-        """Create the bar at the first update, so a call that fails at once prints nothing."""
-        if self._opened:
-            return
-        self._opened = True
-        try:
-            from tqdm.auto import tqdm
-        except ImportError:
-            return
-        self.bar = tqdm(total=100, desc=self.desc, unit="%", dynamic_ncols=True, leave=False)
-
-    def newton(self, iteration, tc, residual):
-        """Callback of the Newton solvers: one step (or continuation point) done."""
-        self._steps += 1
-        if not self.enabled:
-            return
-        self._open()
-        if self.bar is not None:
-            self.bar.set_postfix_str(f"step {iteration}, max|F| {residual:.2e}", refresh=True)
-        else:
-            _LOG.info("%s: step %d, max|F| = %.3e", self.desc, iteration, residual)
-
-    def fraction(self, progress):
-        """Callback of the FDA (``progress.fraction`` in [0, 1] of the run)."""
-        if not self.enabled:
-            return
-        self._open()
-        frac = float(getattr(progress, "fraction", 0.0))
-        if self.bar is not None:
-            self.bar.n = int(round(100 * min(1.0, frac)))
-            self.bar.refresh()
-        elif frac - self._last_log >= 0.1 or frac >= 1.0 > self._last_log:
-            self._last_log = frac
-            _LOG.info("%s: %.0f %% done", self.desc, 100 * frac)
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
-            self.bar = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-        return False
 
