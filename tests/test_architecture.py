@@ -2,6 +2,9 @@
 
 * no import cycles between the modules of ``tps_solver`` (every import counts, also the
   deferred ones inside functions);
+* no module imports from a wing (layer folder) above its own: core < model < operators <
+  solvers < analyses < plotting < cli (every import, also ``importlib`` strings); no module
+  over 1000 lines;
 * no module imports a private name (``_x``) from another module, and nothing outside
   ``tps_solver`` imports one of its private modules (tests may, to test them);
 * no ``sys.path`` edits outside ``tests/conftest.py``; no ``matplotlib.use`` in the library or
@@ -22,8 +25,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "tps_solver"
 
 
-def _module_name(path):
-    rel = path.relative_to(ROOT).with_suffix("")
+def _module_name(path, root=ROOT):
+    rel = path.relative_to(root).with_suffix("")
     parts = list(rel.parts)
     if parts[-1] == "__init__":
         parts = parts[:-1]
@@ -40,16 +43,22 @@ def _tree(path):
     return ast.parse(path.read_text(), filename=str(path))
 
 
-def _imports(path):
-    """(target module, imported names) for every import statement in ``path``."""
+def _imports(path, root=ROOT):
+    """(target module, imported names, line) for every import in ``path``.
+
+    Every import counts: top-level and deferred (inside functions), ``from . import X`` (whose
+    names may be submodules), and ``importlib.import_module(...)`` / ``import_module(...)`` calls
+    whose argument is a string literal or an f-string with a literal ``tps_solver.`` prefix
+    (the prefix is the target: the call may reach anything below it).
+    """
     tree = _tree(path)
-    name = _module_name(path)
+    name = _module_name(path, root)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     out = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for alias in node.names:
-                out.append((alias.name, []))
+                out.append((alias.name, [], node.lineno))
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")
@@ -57,7 +66,19 @@ def _imports(path):
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module
-            out.append((target, [a.name for a in node.names]))
+            out.append((target, [a.name for a in node.names], node.lineno))
+        elif isinstance(node, ast.Call) and node.args:
+            func = node.func
+            fname = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", None)
+            if fname != "import_module":
+                continue
+            arg = node.args[0]
+            if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                out.append((arg.value, [], node.lineno))
+            elif isinstance(arg, ast.JoinedStr) and arg.values and isinstance(arg.values[0], ast.Constant):
+                prefix = str(arg.values[0].value).rstrip(".")
+                if prefix:
+                    out.append((prefix, [], node.lineno))
     return out
 
 
@@ -65,7 +86,7 @@ def _graph():
     modules = {_module_name(p): p for p in _sources("tps_solver")}
     edges = {m: set() for m in modules}
     for m, path in modules.items():
-        for target, names in _imports(path):
+        for target, names, _ in _imports(path):
             if target in modules and target != m:
                 edges[m].add(target)
             for n in names:       # "from . import tps" imports a submodule
@@ -104,11 +125,98 @@ def test_no_import_cycles():
     assert not cycles, cycles
 
 
+# The wings, bottom to top (ARCHITECTURE.md): a module imports only from its own wing or below.
+WINGS = ("core", "model", "operators", "solvers", "analyses", "plotting", "cli")
+_TOP = len(WINGS)          # tps_solver/__init__.py: the lazy public names may come from anywhere
+
+
+def _wing(module):
+    """Rank of ``module`` (a dotted name under tps_solver) in :data:`WINGS`; None outside the package."""
+    parts = module.split(".")
+    if parts[0] != "tps_solver":
+        return None
+    if len(parts) == 1:
+        return _TOP
+    head = parts[1]
+    if head in ("cli", "__main__", "_commands"):
+        return WINGS.index("cli")
+    if head in WINGS:
+        return WINGS.index(head)
+    raise AssertionError(f"{module}: not in a wing of {WINGS} (place it in a layer folder)")
+
+
+def layer_violations(root=ROOT, package="tps_solver"):
+    """``"file:line: source (wing) imports target (wing)"`` for every import that points up."""
+    bad = []
+    for path in sorted((root / package).rglob("*.py")):
+        source = _module_name(path, root)
+        rank = _wing(source)
+        for target, names, line in _imports(path, root):
+            # a name is a target of its own when it is a submodule ("from . import tps")
+            subs = [f"{target}.{n}" for n in names if target and (
+                (root / target.replace(".", "/") / f"{n}.py").exists()
+                or (root / target.replace(".", "/") / n / "__init__.py").exists())]
+            targets = [target] + subs
+            for t in targets:
+                if not t or not t.startswith(package):
+                    continue
+                r = _wing(t)
+                if r == _TOP and rank == WINGS.index("cli"):
+                    continue         # the CLI may use the public names of the package
+                if r is not None and r > rank:
+                    bad.append(f"{path.relative_to(root)}:{line}: {source} ({WINGS[rank] if rank < _TOP else 'top'}) "
+                               f"imports {t} ({WINGS[r] if r < _TOP else 'the package top'})")
+                    break
+    return bad
+
+
+def size_violations(root=ROOT, package="tps_solver", limit=1000):
+    """Modules over ``limit`` lines."""
+    return [f"{p.relative_to(root)}: {n} lines" for p in sorted((root / package).rglob("*.py"))
+            if (n := len(p.read_text().splitlines())) > limit]
+
+
+def test_no_module_imports_from_a_layer_above_its_own():
+    bad = layer_violations()
+    assert not bad, "\n".join(bad)
+
+
+def test_no_module_is_over_1000_lines():
+    bad = size_violations()
+    assert not bad, bad
+
+
+def test_the_layer_rules_catch_violations(tmp_path):
+    """The checker on a synthetic tree: each planted violation is reported, the clean module is not."""
+    pkg = tmp_path / "tps_solver"
+    for d in ("core", "model", "solvers", "analyses"):
+        (pkg / d).mkdir(parents=True)
+        (pkg / d / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("from importlib import import_module\n")
+    (pkg / "core" / "up.py").write_text("def f():\n    from tps_solver.model import flat\n")
+    (pkg / "core" / "by_string.py").write_text("import importlib\nM = importlib.import_module('tps_solver.analyses.x')\n")
+    (pkg / "core" / "by_fstring.py").write_text("from importlib import import_module\n"
+                                                "def g(n):\n    return import_module(f'tps_solver.solvers.{n}')\n")
+    (pkg / "model" / "relative.py").write_text("from ..solvers import fda\n")
+    (pkg / "model" / "flat.py").write_text("from tps_solver.core import up\n")        # downward: fine
+    (pkg / "analyses" / "long.py").write_text("x = 1\n" * 1001)
+    bad = layer_violations(tmp_path)
+    assert [b.split(":")[0] for b in bad] == ["tps_solver/core/by_fstring.py", "tps_solver/core/by_string.py",
+                                              "tps_solver/core/up.py", "tps_solver/model/relative.py"]
+    assert "core/up.py:2:" in bad[2] and "imports tps_solver.model" in bad[2]
+    assert size_violations(tmp_path) == ["tps_solver/analyses/long.py: 1001 lines"]
+    (pkg / "operators").mkdir()
+    (pkg / "operators" / "__init__.py").write_text("")
+    (pkg / "stray.py").write_text("")
+    with pytest.raises(AssertionError, match="not in a wing"):
+        layer_violations(tmp_path)
+
+
 def test_no_private_names_imported_across_modules():
     bad = []
     for path in _sources("tps_solver", "validation"):
         inside = _module_name(path).startswith("tps_solver")
-        for target, names in _imports(path):
+        for target, names, _ in _imports(path):
             # a private submodule imported by a module of its own package is fine ("from . import _x")
             private = [n for n in names if n.startswith("_") and not n.startswith("__")
                        and not ((ROOT / target.replace(".", "/") / f"{n}.py").exists()
