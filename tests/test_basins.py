@@ -139,7 +139,7 @@ def test_not_settled_is_irregular_with_a_message():
 
 def test_event_bound_marks_failed_samples():
     res = flat_basins(2.5, 0.45, n_samples=4, seed=0, periods=10, p_max=4, max_events_per_cycle=2)
-    assert res.status == 2 and not res.converged and np.any(res.labels == -2)
+    assert res.status == 6 and not res.converged and np.any(res.labels == -2)
     assert "failed" in res.fractions and "max_events_per_cycle" in res.message
 
 

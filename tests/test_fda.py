@@ -204,7 +204,7 @@ def test_event_bound_stops_with_a_clear_error():
     lat = tps.Lattice.planar(n_nodes=5, length=4.0)
     run = tps.simulate(lat, 0.8, 0.5, np.zeros(5), np.full(5, 0.3), t_start=0.0, t_end=20.0,
                        max_events_per_cycle=12)
-    assert not run.success and run.status == 2
+    assert not run.success and run.status == 6
     assert "event bound" in run.message and run.t < 20.0
 
 

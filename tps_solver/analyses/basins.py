@@ -130,7 +130,8 @@ class BasinResult(Bunch):
     converged : bool
         True if every sample reached a cycle of period <= ``p_max``.
     status : int
-        0 all classified; 1 some irregular; 2 some integrations failed.
+        A code of :data:`tps_solver.STATUS`: 0 all classified; 1 some irregular after ``periods``;
+        6 some integrations failed (event bound: chatter).
     message : str
 
     Examples
@@ -622,7 +623,7 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     flat_fraction = sum(a.fraction for a in flat)
     flat_stderr = math.sqrt(flat_fraction * (1.0 - flat_fraction) / n_samples)
     if n_fail:
-        status = 2
+        status = 6
         first = next(s["message"] for s in samples if s["status"] == "failed")
         message = (f"{n_fail} of {n_samples} samples failed ({first}); raise max_events_per_cycle or "
                    f"stick_velocity if they chatter")

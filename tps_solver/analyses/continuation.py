@@ -60,17 +60,15 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.orbit import STATUS
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 
 __all__ = ["continue_branch", "Branch", "load_branch", "BRANCH_STATUS"]
 
-BRANCH_STATUS = {
-    0: "reached a bound of the parameter interval",
-    1: "point limit reached",
-    2: "the corrector failed at the smallest step (the branch cannot be followed further)",
-    3: "the orbit stopped existing (not admissible, or the problem refused the point)",
-    5: "interrupted (KeyboardInterrupt); the points so far are returned",
-}
+#: The codes of the one table :data:`tps_solver.STATUS` that a branch returns: 0 reached a bound of
+#: the parameter interval; 1 point limit; 2 the corrector failed at the smallest step; 4 the orbit
+#: stopped existing (not admissible, or the problem refused the point); 5 interrupted.
+BRANCH_STATUS = {k: STATUS[k] for k in (0, 1, 2, 4, 5)}
 
 
 
@@ -635,7 +633,7 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
                 h *= 0.5
                 if h < min_step:
                     if refused is not None:
-                        status, message = 3, (f"the orbit stops existing near {parameter} = {y_prev[-1]:.10g}: "
+                        status, message = 4, (f"the orbit stops existing near {parameter} = {y_prev[-1]:.10g}: "
                                               f"{refused}")
                     else:
                         status, message = 2, (f"the corrector failed for every step down to {min_step:.2g} "

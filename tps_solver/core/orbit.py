@@ -8,30 +8,38 @@ result bunch with the fields below and the evaluators :meth:`velocity` and
 
 Status codes
 ------------
-One table, :data:`STATUS`, for every solver that returns a periodic orbit:
+One table, :data:`STATUS`, for every solver of the package (periodic orbits, time
+stepping, continuation, basins): a code has one meaning wherever it appears.
 
 ====  ==========================================================================
 code  meaning
 ====  ==========================================================================
-0     converged: the residual met the tolerance
-1     iteration limit reached
-2     stagnation: no decrease along the Newton direction, or a non-finite step
+0     done: the residual met the tolerance (a simulation reached ``t_end``; a
+      branch reached a bound of its interval; every basin sample was classified)
+1     limit reached before an answer: the iteration limit of a solve, the point
+      limit of a branch, basin samples still irregular after ``periods``
+2     stagnation: no decrease along the Newton direction (a branch's corrector
+      failed down to the smallest step), or a non-finite step
 3     the contact computation failed (no jump-like up-crossing of (46), or the
-      FDA period map's contact search stalled)
-4     the branch ended before the requested parameter (continuation stopped,
-      most likely at a fold); the fields hold the last converged point
+      FDA's contact search stalled)
+4     the branch ended before the requested parameter (a fold, or the orbit
+      stopped existing); the fields hold the last converged point
 5     interrupted by the user (``KeyboardInterrupt``); the last iterate is kept
-6     event bound exceeded in the period map (chattering or Zeno behaviour)
+6     event bound exceeded (chattering or Zeno behaviour) in a simulation, a
+      period map or a basin sample
 7     periodic on the free nodes, but a node stuck at the section is free after
       one period (choose another section)
+8     singular or non-finite Jacobian
 ====  ==========================================================================
+
+:func:`outcome` gives the ``converged``/``success`` pair of a code (computed once).
 """
 import numpy as np
 
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.pattern import ContactPattern
 
-__all__ = ["PeriodicOrbit", "STATUS", "converged_message"]
+__all__ = ["PeriodicOrbit", "STATUS", "converged_message", "outcome"]
 
 STATUS = {
     0: "converged",
@@ -42,7 +50,22 @@ STATUS = {
     5: "interrupted",
     6: "event bound exceeded",
     7: "stuck set changed at the section",
+    8: "singular or non-finite Jacobian",
 }
+
+
+def outcome(status):
+    """``{"converged": ..., "success": ...}`` of a :data:`STATUS` code (both ``status == 0``).
+
+    Examples
+    --------
+    >>> outcome(0), outcome(6)
+    ({'converged': True, 'success': True}, {'converged': False, 'success': False})
+    """
+    if int(status) not in STATUS:
+        raise ValueError(f"status must be a code of STATUS {sorted(STATUS)}, got {status!r}")
+    ok = int(status) == 0
+    return {"converged": ok, "success": ok}
 
 
 def converged_message(residual, tol, how=""):

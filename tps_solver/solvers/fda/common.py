@@ -4,15 +4,12 @@ import numpy as np
 from tps_solver.core import archive as io
 from tps_solver.core.checks import check_array, check_real
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.orbit import STATUS
 
 __all__ = ["SimulationResult", "check_time_window", "stack_samples", "SIMULATION_STATUS"]
 
-SIMULATION_STATUS = {
-    0: "reached t_end",
-    2: "event bound exceeded (chattering or Zeno behaviour)",
-    3: "contact search stalled",
-    5: "interrupted (KeyboardInterrupt); the state so far is returned",
-}
+#: The codes of the one table :data:`tps_solver.STATUS` that a simulation returns.
+SIMULATION_STATUS = {k: STATUS[k] for k in (0, 3, 5, 6)}
 
 
 class SimulationResult(Bunch):
@@ -32,8 +29,8 @@ class SimulationResult(Bunch):
     n_events : int
     success : bool
     status : int
-        A code of :data:`SIMULATION_STATUS`: 0 reached ``t_end``; 2 event bound exceeded
-        (chattering); 3 contact search stalled; 5 interrupted (the state so far).
+        A code of :data:`tps_solver.STATUS` (:data:`SIMULATION_STATUS` lists those used):
+        0 reached ``t_end``; 6 event bound exceeded (chattering); 3 contact search stalled; 5 interrupted (the state so far).
     message : str
     t_eval : ndarray of float, shape (k,)
     w_eval, zeta_eval : ndarray of float, shape (k, n_nodes)

@@ -213,7 +213,7 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
                 n_logged = len(log)
                 records.append((t, w.copy(), zeta.copy(), np.array(stuck, dtype=bool)))
             if log.exceeded:
-                status = 2
+                status = 6
                 message = (f"event bound exceeded: more than {max_events_per_cycle} events in the forcing "
                            f"cycle containing t = {t:.12g} (chattering or Zeno behaviour); state so far "
                            "returned")

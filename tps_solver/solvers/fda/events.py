@@ -23,7 +23,7 @@ Rules (stated once, used by ``method="exact"`` and ``method="ode"``):
   free acceleration becomes positive (Sec. 4 after (37): :math:`g \to H(\zeta)g`),
   including at once when an impact next to it makes it jump positive.
 * **Event bound.**  More than ``max_events_per_cycle`` events within one forcing
-  cycle :math:`2\pi` end the run with ``status = 2`` and the state so far.
+  cycle :math:`2\pi` end the run with ``status = 6`` and the state so far.
 
 Every event is logged as a record ``(t, node, kind, w_before)`` with ``kind`` in
 ``{"impact", "stick", "liftoff"}``; an impact that ends in sticking is logged

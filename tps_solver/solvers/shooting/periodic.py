@@ -269,7 +269,7 @@ class _PeriodMap:
         run = simulate(self.lattice, self.Gamma, self.e, w, z, t_start=self.t_s,
                        t_end=self.t_s + periods * self.T, method=self.method, t_eval=t_eval,
                        record_segments=record, **kw)
-        if run.status == 2:
+        if run.status == 6:
             raise _MapError(6, f"event bound exceeded in the period map: {run.message}; raise "
                                "max_events_per_period, raise stick_velocity (chatter turns into sticking "
                                "sooner) or start closer to a periodic orbit")

@@ -117,7 +117,7 @@ class StickSolution(PeriodicOrbit):
     converged, success : bool
     status : int
         0 converged; 1 iteration limit; 2 line search failed (no decrease of the residual);
-        3 singular Jacobian or non-finite residual.
+        8 singular Jacobian or non-finite residual (the codes of :data:`tps_solver.STATUS`).
     message : str
     nit : int
     residual : float
@@ -244,7 +244,7 @@ def _newton(problem, x, tol, max_iter):
             n_jac += 1
             fresh = True
         if isinstance(lu, str):
-            status, message = 3, f"singular or non-finite Jacobian at iteration {nit + 1}: {lu}"
+            status, message = 8, f"singular or non-finite Jacobian at iteration {nit + 1}: {lu}"
             break
         with np.errstate(all="ignore"):
             dx = -lu_solve(lu, F)
@@ -252,7 +252,7 @@ def _newton(problem, x, tol, max_iter):
             if not fresh:
                 lu = None
                 continue
-            status, message = 3, f"non-finite Newton step at iteration {nit + 1}"
+            status, message = 8, f"non-finite Newton step at iteration {nit + 1}"
             break
         # keep times ordered: limit the time step
         cap = 0.25
