@@ -15,7 +15,8 @@ Public API (see ``README.md`` for a tour):
 * :class:`Lattice` -- the FDA's grids and Laplacians, shared by the TPS and the FDA;
 * :func:`simulate`, :data:`METHODS` -- the event-driven FDA, eqs. (51)-(63);
 * :class:`SoftFlatOrbit` -- the flat layer of the soft-contact model;
-* :class:`PeriodicOrbit`, :data:`STATUS` -- the vocabulary of every periodic result;
+* :class:`PeriodicOrbit`, :data:`STATUS`, :class:`ContactPattern` -- the vocabulary of every periodic
+  result;
 * :func:`check_stability` -- hands a limit cycle to the FDA;
 * :func:`find_periodic_orbit` -- periodic orbits of any contact pattern by shooting;
 * :func:`lattice_kink`, :func:`lattice_oscillon`, :func:`front_width` -- kinks and oscillons of
@@ -48,6 +49,7 @@ _LAZY = {
     "PeriodicSolution": "solvers.tps",
     "PeriodicOrbit": "core.orbit",
     "STATUS": "core.orbit",
+    "ContactPattern": "core.pattern",
     "load": "analyses.files",
     "Lattice": "operators.lattice",
     "simulate": "solvers.fda",
