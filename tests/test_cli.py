@@ -33,12 +33,31 @@ def test_simulate_soft_contact_with_cutoff_runs(capsys):
     assert "method soft" in out and "cut-off soft contact = 1" in out
 
 
-def test_simulate_methods_are_the_registry():
-    from tps_solver.solvers.fda import METHODS
-
+def _method_choices():
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
-    method = next(a for a in sub.choices["simulate"]._actions if a.dest == "method")
-    assert sorted(method.choices) == sorted(METHODS)
+    return next(a for a in sub.choices["simulate"]._actions if a.dest == "method").choices
+
+
+@pytest.mark.parametrize("method", sorted(_method_choices()))
+def test_every_simulate_method_follows_the_flat_layer(method, capsys):
+    """Each method the command offers runs the flat case; its printed state is the closed form's."""
+    import re
+
+    from tps_solver import FlatLayer
+
+    soft = method.startswith("soft")
+    argv = ["simulate", "flat", "--method", method, "--periods", "2", "--nodes", "3"]
+    assert main(argv + (["--cutoff", "0.3"] if soft else [])) == 0
+    out = capsys.readouterr().out
+    rows = re.findall(r"t = +([0-9.]+), events +(\d+) .*min zeta ([0-9.eE+-]+)", out)
+    assert len(rows) == 2
+    fl = FlatLayer(2.5, 2, e=0.45)
+    for t, n_events, zmin in rows:
+        # three uniform nodes: one contact each per period ("soft" logs entry and exit)
+        assert int(n_events) == (6 if method == "soft" else 3)
+        if not soft:      # point impacts: the height is the closed-form flat orbit's (17)
+            assert zmin == f"{float(fl.height(float(t))):.3g}"
+    assert float(rows[-1][0]) == pytest.approx(fl.t0 + 1.0 + 2 * fl.period, abs=1e-3)
 
 
 @pytest.mark.parametrize("argv, flag", [
