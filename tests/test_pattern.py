@@ -115,3 +115,51 @@ def test_shooting_orbit_evaluates_from_its_stored_period(monkeypatch):
 
     monkeypatch.setattr(fda, "simulate", no_stepping)
     assert np.array_equal(orb.height(t), z)
+
+
+# ----------------------------------------------------------------------------- patterns from FDA events
+from tps_solver.solvers.fda.patterns import pattern_from_events  # noqa: E402
+
+
+def _events(rows):
+    return np.rec.fromrecords(rows, names="t,node,kind")
+
+
+def test_pattern_from_events_manufactured():
+    lat = tps.Lattice.planar(n_nodes=3, length=2.0)
+    ev = _events([(1.0, 2, "impact"), (1.0, 2, "liftoff"),            # e = 0 touch-and-go
+                  (2.0, 1, "stick"),                                  # lone stick: lands to rest
+                  (2.0 + 5e-10, 0, "liftoff"),                        # triggered by node 1
+                  (7.0, 0, "impact"), (7.0, 0, "stick"),              # rest across the section
+                  (8.0, 1, "liftoff"), (9.0, 2, "impact"), (9.0, 2, "stick"), (10.0, 2, "liftoff")])
+    p = pattern_from_events(ev, lat, T, 0.0, stuck0=[True, False, False])
+    assert p.sequences() == ["S", "S", "TS"]
+    assert p.liftoff[0] == 2.0 + 5e-10 + T and p.ended_by[0] == "triggered" and p.trigger[0] == 1
+    assert p.liftoff[1] == 8.0 and p.ended_by[1] == "smooth"
+    assert p.liftoff[3] == 10.0 and p.ended_by[3] == "smooth"
+    # not triggered beyond the tolerance
+    q = pattern_from_events(ev, lat, T, 0.0, stuck0=[True, False, False], trigger_tol=1e-10)
+    assert q.ended_by[0] == "smooth"
+    with pytest.raises(ValueError, match="no landing to rest"):
+        pattern_from_events(ev, lat, T, 0.0)
+    with pytest.raises(ValueError, match="never lifts off"):
+        pattern_from_events(_events([(1.0, 0, "stick")]), lat, T, 0.0)
+
+
+def test_shooting_kink_pattern_against_the_impact_and_stick_tps():
+    """Two methods, one orbit: the shooting kink's events against the spectral impact-and-stick TPS."""
+    lat, orb = _kink()
+    c = orb.contacts
+    assert sorted(set(c.sequences())) == ["ST", "TS"] and np.all(c.counts == 2)
+    sol = tps.solve_stick_lattice(lat, 4.1, pattern=orb)
+    assert sol.converged
+    assert c.max_phase_distance(sol.contacts) < 1e-9
+
+
+def test_single_contact_shooting_orbit_has_the_cycle_tc():
+    coarse = tps.Lattice.planar(n_nodes=8, length=140.0)
+    cyc = tps.solve_lattice_cycle(coarse, Gamma=2.5, M=2, e=0.45, t0=None)
+    orb = tps.find_periodic_orbit(coarse, Gamma=2.5, M=2, e=0.45, guess=cyc, multipliers=False)
+    d = np.mod(orb.tc - cyc.tc, orb.period)
+    assert np.max(np.minimum(d, orb.period - d)) < 1e-9
+    assert orb.contacts.sequences() == ["B"] * 8

@@ -225,7 +225,10 @@ class ContactPattern(Bunch):
     def max_phase_distance(self, other):
         """Largest distance (mod period) between matching contact and lift-off times of two patterns.
 
-        The patterns must have the same nodes, kinds per node and period; else ``inf``.
+        Contacts are matched per node up to a cyclic shift (two windows of one orbit may start
+        at different instants); the shift with the same kinds and the smallest distance is
+        taken.  Patterns with other nodes, periods or per-node kinds (up to the shift) are
+        ``inf`` apart.
 
         Examples
         --------
@@ -233,9 +236,13 @@ class ContactPattern(Bunch):
         >>> b = ContactPattern.single([1.0 + 1e-9, 1.999], 12.0)
         >>> round(a.max_phase_distance(b), 12)
         0.001
+        >>> c = ContactPattern.from_contacts([0, 0], [1.0, 5.0], ["T", "S"], 1, 12.0, liftoff=[0, 6.0])
+        >>> d = ContactPattern.from_contacts([0, 0], [5.0, 13.0], ["S", "T"], 1, 12.0, t_start=3.0,
+        ...                                  liftoff=[6.0, 0])
+        >>> c.sequences(), d.sequences(), c.max_phase_distance(d)
+        (['TS'], ['ST'], 0.0)
         """
-        if (self.n_nodes != other.n_nodes or abs(self.period - other.period) > 1e-12 * self.period
-                or self.sequences() != other.sequences()):
+        if self.n_nodes != other.n_nodes or abs(self.period - other.period) > 1e-12 * self.period:
             return float("inf")
         T = self.period
 
@@ -243,8 +250,20 @@ class ContactPattern(Bunch):
             d = np.mod(a - b, T)
             return np.minimum(d, T - d)
 
-        out = float(np.max(dist(self.t, other.t), initial=0.0))
-        rest = np.isfinite(self.liftoff)
-        if np.any(rest):
-            out = max(out, float(np.max(dist(self.liftoff[rest], other.liftoff[rest]))))
-        return out
+        worst = 0.0
+        for j in range(self.n_nodes):
+            a, b = self.of_node(j), other.of_node(j)
+            if a.t.size != b.t.size:
+                return float("inf")
+            best = float("inf")
+            for shift in range(max(a.t.size, 1)):
+                kb = np.roll(b.kind, shift)
+                if not np.array_equal(a.kind, kb):
+                    continue
+                d = float(np.max(dist(a.t, np.roll(b.t, shift)), initial=0.0))
+                rest = np.isfinite(a.liftoff)
+                if np.any(rest):
+                    d = max(d, float(np.max(dist(a.liftoff[rest], np.roll(b.liftoff, shift)[rest]))))
+                best = min(best, d)
+            worst = max(worst, best)
+        return worst

@@ -170,6 +170,27 @@ class ShootingOrbit(PeriodicOrbit):
         return self.lattice.nodes
 
     @property
+    def contacts(self):
+        """The contact pattern of the stored period (:class:`~tps_solver.core.pattern.ContactPattern`).
+
+        Read from ``events`` (impulsive methods): impacts that end at rest are ``"stick"``
+        with their lift-off (``"triggered"`` where a lattice neighbour lands at that instant),
+        the other impacts ``"bounce"`` (e > 0) or ``"touch"`` (e = 0).
+        """
+        from tps_solver.solvers.fda.patterns import pattern_from_events
+
+        if self.method == "soft":
+            raise AttributeError("the contact pattern of a soft-contact orbit is its contact intervals "
+                                 "(sticking_intervals); contacts needs an impulsive method")
+        return pattern_from_events(self.events, self.lattice, self.period, self.t_start, stuck0=self.stuck0,
+                                   e=self.e)
+
+    @property
+    def tc(self):
+        """Contact time of each node, shape (n_nodes,), for a single-contact orbit (else ValueError)."""
+        return self.contacts.tc
+
+    @property
     def geometry(self):
         """Geometry of the lattice."""
         return self.lattice.geometry
