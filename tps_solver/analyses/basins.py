@@ -76,6 +76,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 from tps_solver.model.ball import CONTACT, FREE, MODE_NAMES, STUCK, ClosedFormBall
 
 __all__ = ["flat_basins", "BasinResult", "ball_cycle"]
@@ -375,9 +376,8 @@ def _analyse_cycle(ball, t_section, pts, p):
             x, res = xn, rn
         Jc, Jf, Jb, _ = _jacobian(ball, t_section, x, p, _FD_STEP)
         smooth = bool(np.max(np.abs(Jf - Jb)) <= 1e-4 * (1.0 + np.max(np.abs(Jc))))
-        mu = np.linalg.eigvals(Jc).astype(complex)
+        mu = floquet_multipliers(Jc)
         mu[np.abs(mu) < 1e-9] = 0.0
-        mu = mu[np.argsort(-np.abs(mu), kind="stable")]
     elif all(q[2] == STUCK for q in pts):
         smooth, mu = True, np.zeros(2, dtype=complex)        # stuck at every section: the map resets
     else:

@@ -49,12 +49,13 @@ with ``stage``, ``fraction`` (of the whole check) and ``periods_done``; a
 ``KeyboardInterrupt`` returns what was measured so far with ``interrupted = True``.
 The small dense kernels run on one BLAS thread (:func:`tps_solver.core.costs.blas_threads`).
 """
-import math
 
 import numpy as np
 
 from tps_solver.core import archive as io
 from tps_solver.core.bunch import Bunch
+from tps_solver.solvers.shooting.floquet import fit_growth
+from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 from tps_solver.core.checks import check_choice, check_int, check_positive
 from tps_solver.core.costs import blas_threads, small_dense
 from tps_solver.solvers.fda import Lattice, flat_state, simulate
@@ -191,8 +192,7 @@ def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6, ti
             n = lattice.n_nodes
             out.append(np.array([np.mean(y[:n]), np.mean(y[n:])]))
         J[:, col] = (out[0] - out[1]) / (2.0 * h)
-    mu = np.linalg.eigvals(J).astype(complex)
-    return mu[np.argsort(-np.abs(mu), kind="stable")]
+    return floquet_multipliers(J)
 
 
 def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h, tick=None):
@@ -211,25 +211,6 @@ def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h, tick=None):
             if tick is not None:
                 tick()
     return Jp, Jm
-
-
-def _fit_growth(dist, saturation):
-    """Per-period growth factor from a log-linear fit on the linear window of ``dist``.
-
-    The window ends at the last period before ``dist`` first exceeds
-    ``saturation`` (the linear regime) and starts half-way into it (after the
-    transient); with fewer than two points there it starts at period 0.
-    """
-    over = np.flatnonzero(~(dist < saturation))
-    k1 = (int(over[0]) - 1) if over.size else dist.size - 1
-    if k1 < 1:
-        return float("nan"), (0, max(k1, 0))
-    k0 = max(1, k1 // 2) if k1 - max(1, k1 // 2) >= 1 else 0
-    ks = np.arange(k0, k1 + 1)
-    d = dist[ks]
-    if np.any(d <= 0):
-        return float("nan"), (k0, k1)
-    return float(math.exp(np.polyfit(ks, np.log(d), 1)[0])), (k0, k1)
 
 
 def check_stability(solution, periods=20, n_nodes=None, method="exact", *, length=8.0,
@@ -438,7 +419,7 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
     k = min(pert.zeta_eval.shape[0], k_done)
     dist = np.maximum(np.max(np.abs(pert.zeta_eval[:k] - Z[:k]), axis=1),
                       np.max(np.abs(pert.w_eval[:k] - W[:k]), axis=1))
-    growth, window = _fit_growth(dist, saturation)
+    growth, window = fit_growth(dist, saturation)
     if window[1] < k - 1:
         notes.append(f"the perturbation reached {np.max(dist):.3g} (> saturation {saturation:g}) after "
                      f"{window[1] + 1} periods; growth fitted on periods {window[0]}..{window[1]} only")
@@ -481,8 +462,7 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
         big = float(np.max(np.abs(Jp) + np.abs(Jm)))
         differentiable = gap <= jacobian_rtol * big
         if differentiable:
-            mu = np.linalg.eigvals(0.5 * (Jp + Jm)).astype(complex)
-            multipliers, kind = mu[np.argsort(-np.abs(mu), kind="stable")], "full period map"
+            multipliers, kind = floquet_multipliers(0.5 * (Jp + Jm)), "full period map"
         else:
             notes.append(f"period map not differentiable at the orbit: one-sided Jacobians differ by "
                          f"{gap:.3g} (largest entry {big:.3g}); impact order matters (docs/design.md, hazard 7)")

@@ -68,6 +68,7 @@ from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 from tps_solver.solvers.fda.dense import PiecewiseFlow
+from tps_solver.solvers.shooting.floquet import fit_growth
 
 __all__ = ["find_periodic_orbit", "ShootingOrbit"]
 
@@ -465,21 +466,6 @@ def _choose_section(pmap_factory, w, z, stuck, t_g, T, method, n_grid=512):
     wk[st] = 0.0
     zk[st] = 0.0
     return wk, zk, st, float(ts[k]), float(clear[k]), pm.count
-
-
-def _fit_growth(dist, saturation=1e-3):
-    """Per-period growth factor: log-linear fit over the second half of the linear window
-    (the periods before ``dist`` first exceeds ``saturation``), as in check_stability."""
-    over = np.flatnonzero(~(dist < saturation))
-    k1 = (int(over[0]) - 1) if over.size else dist.size - 1
-    if k1 < 1:
-        return float("nan")
-    k0 = max(1, k1 // 2) if k1 - max(1, k1 // 2) >= 1 else 0
-    ks = np.arange(k0, k1 + 1)
-    d = dist[ks]
-    if np.any(d <= 0):
-        return float("nan")
-    return float(math.exp(np.polyfit(ks, np.log(d), 1)[0]))
 
 
 def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None, t_start=None, *,
@@ -953,7 +939,7 @@ def _growth(pm, x, periods, size=1e-8, saturation=1e-3, seed=0):
     k = min(ref.w_eval.shape[0], per.w_eval.shape[0])
     dist = np.maximum(np.max(np.abs(per.zeta_eval[:k] - ref.zeta_eval[:k]), axis=1),
                       np.max(np.abs(per.w_eval[:k] - ref.w_eval[:k]), axis=1))
-    return _fit_growth(dist, saturation)
+    return fit_growth(dist, saturation)[0]
 
 
 # ------------------------------------------------------------------ file codec (tps_solver.core.archive)

@@ -1,0 +1,96 @@
+r"""Floquet multipliers and measured growth of periodic orbits: one place for both.
+
+* :func:`multipliers` -- the eigenvalues of a monodromy (the linearised period map),
+  sorted by decreasing modulus; all of a dense matrix, or the leading ``k`` of a matrix or
+  ``LinearOperator`` by Arnoldi (``scipy.sparse.linalg.eigs``);
+* :func:`fit_growth` -- the per-period growth factor of a perturbation from the distances
+  :math:`d_k = |x_k - x^*|` after k periods, by a log-linear fit on the linear window (used
+  where the period map is not differentiable: sticking, grazing).
+"""
+import math
+
+import numpy as np
+from scipy.sparse.linalg import LinearOperator, eigs
+
+__all__ = ["multipliers", "fit_growth"]
+
+
+def multipliers(monodromy, k=None):
+    """Eigenvalues of a monodromy, by decreasing modulus.
+
+    Parameters
+    ----------
+    monodromy : ndarray of float, shape (n, n), or scipy.sparse.linalg.LinearOperator
+    k : int, optional
+        Only the ``k`` leading multipliers (Arnoldi; required for a ``LinearOperator``, and
+        used for a matrix when ``k < n - 1``).
+
+    Returns
+    -------
+    ndarray of complex, shape (n,) or (k,)
+
+    Examples
+    --------
+    >>> A = np.diag([0.5, -0.9, 0.1])
+    >>> multipliers(A).real.tolist()
+    [-0.9, 0.5, 0.1]
+    >>> bool(abs(multipliers(np.diag(np.linspace(0.01, 0.99, 40)), k=2)[0] - 0.99) < 1e-12)
+    True
+    """
+    if isinstance(monodromy, LinearOperator):
+        if k is None:
+            raise ValueError("k must be given for a LinearOperator monodromy (the leading k multipliers)")
+        n = monodromy.shape[0]
+    else:
+        monodromy = np.asarray(monodromy, dtype=float)
+        if monodromy.ndim != 2 or monodromy.shape[0] != monodromy.shape[1]:
+            raise ValueError(f"monodromy must be a square matrix, got shape {monodromy.shape}")
+        n = monodromy.shape[0]
+        if k is None or k >= n - 1:
+            mu = np.linalg.eigvals(monodromy).astype(complex)
+            return mu[np.argsort(-np.abs(mu), kind="stable")][:k]
+    k = int(k)
+    if not 1 <= k < n - 1:
+        raise ValueError(f"k must lie in [1, n - 2] = [1, {n - 2}] for Arnoldi, got {k}")
+    mu = eigs(monodromy, k=k, which="LM", return_eigenvectors=False).astype(complex)
+    return mu[np.argsort(-np.abs(mu), kind="stable")]
+
+
+def fit_growth(dist, saturation=1e-3):
+    """Per-period growth factor from a log-linear fit on the linear window of ``dist``.
+
+    The window ends at the last period before ``dist`` first exceeds ``saturation`` (the
+    linear regime) and starts half-way into it (after the transient); with fewer than two
+    points there it starts at period 0.
+
+    Parameters
+    ----------
+    dist : ndarray of float, shape (n_periods + 1,)
+        Distance from the orbit after 0, 1, 2, ... periods.
+    saturation : float
+
+    Returns
+    -------
+    growth : float
+        nan when the window has fewer than two points or a distance is not positive.
+    window : tuple of int
+        ``(k0, k1)``, the first and last period of the fit.
+
+    Examples
+    --------
+    >>> d = 1e-8 * 1.5 ** np.arange(30)
+    >>> g, window = fit_growth(d)
+    >>> round(g, 12), window
+    (1.5, (14, 28))
+    """
+    dist = np.asarray(dist, dtype=float)
+    over = np.flatnonzero(~(dist < saturation))
+    k1 = (int(over[0]) - 1) if over.size else dist.size - 1
+    if k1 < 1:
+        return float("nan"), (0, max(k1, 0))
+    k0 = max(1, k1 // 2) if k1 - max(1, k1 // 2) >= 1 else 0
+    ks = np.arange(k0, k1 + 1)
+    d = dist[ks]
+    if np.any(d <= 0):
+        return float("nan"), (k0, k1)
+    return float(math.exp(np.polyfit(ks, np.log(d), 1)[0])), (k0, k1)
