@@ -186,3 +186,21 @@ def test_soft_orbit_branch_multipliers_match_the_closed_form_flat_monodromy():
     assert len(rows) == 3 and rows[-1]["value"] > 0.304
     for r in rows:
         assert r["n_multipliers"] == 6 and r["error"] < 1e-10, r
+
+
+def test_special_points_are_typed_records_that_survive_save_and_load(flat_branch, tmp_path):
+    from tps_solver.analyses.continuation import SpecialPoint
+
+    sps = flat_branch.special_points
+    assert sps and all(isinstance(sp, SpecialPoint) for sp in sps)
+    window = tps.FlatLayer.stability_window(0.45, 2)
+    fold = next(sp for sp in sps if sp.kind == "fold")
+    assert fold.parameter == "Gamma" and abs(fold.value - window[0]) < 1e-8
+    # at the fold a multiplier is +1, at the period doubling -1 (the located point's own multipliers)
+    assert np.min(np.abs(fold.multipliers - 1.0)) < 1e-6
+    pd = next(sp for sp in sps if sp.kind == "period_doubling")
+    assert np.min(np.abs(pd.multipliers + 1.0)) < 1e-6
+    back = tps.load(flat_branch.save(tmp_path / "b"))
+    for a, b in zip(sps, back.special_points):
+        assert type(b) is SpecialPoint and (a.kind, a.value, a.parameter, a.index) == (b.kind, b.value, b.parameter, b.index)
+        assert np.array_equal(a.state, b.state) and np.array_equal(a.multipliers, b.multipliers)

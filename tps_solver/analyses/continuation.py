@@ -63,13 +63,64 @@ from tps_solver.core.bunch import Bunch
 from tps_solver.core.orbit import STATUS
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 
-__all__ = ["continue_branch", "Branch", "load_branch", "BRANCH_STATUS"]
+__all__ = ["continue_branch", "Branch", "SpecialPoint", "load_branch", "BRANCH_STATUS"]
 
 #: The codes of the one table :data:`tps_solver.STATUS` that a branch returns: 0 reached a bound of
 #: the parameter interval; 1 point limit; 2 the corrector failed at the smallest step; 4 the orbit
 #: stopped existing (not admissible, or the problem refused the point); 5 interrupted.
 BRANCH_STATUS = {k: STATUS[k] for k in (0, 1, 2, 4, 5)}
 
+
+
+class SpecialPoint(tuple):
+    """A special point of a branch: a typed record that reads as the pair ``(kind, value)``.
+
+    Attributes
+    ----------
+    kind : str
+        ``"fold"`` or ``"period_doubling"``.
+    value : float
+        The parameter value there.
+    parameter : str
+        The name of the continued parameter.
+    index : int
+        The branch point after it.
+    state : ndarray of float
+        The located solution (the problem's unknowns there).
+    multipliers : ndarray of complex
+        Its Floquet multipliers, by decreasing modulus.
+
+    Examples
+    --------
+    >>> sp = SpecialPoint("fold", 2.5, "Gamma", 3, np.zeros(2), np.array([1.0 + 0j]))
+    >>> kind, value = sp
+    >>> kind, value, sp.parameter, sp == ("fold", 2.5), dict([sp])
+    ('fold', 2.5, 'Gamma', True, {'fold': 2.5})
+    """
+
+    def __new__(cls, kind, value, parameter, index, state, multipliers):
+        self = super().__new__(cls, (str(kind), float(value)))
+        self.kind, self.value, self.parameter, self.index = str(kind), float(value), str(parameter), int(index)
+        self.state = np.asarray(state, dtype=float)
+        self.multipliers = np.asarray(multipliers, dtype=complex)
+        return self
+
+    def __getnewargs__(self):
+        return (self.kind, self.value, self.parameter, self.index, self.state, self.multipliers)
+
+    def __repr__(self):
+        return f"SpecialPoint({self.kind!r}, {self.value!r}, parameter={self.parameter!r}, index={self.index})"
+
+    @classmethod
+    def from_detail(cls, d, parameter):
+        """The record of one ``special_details`` entry."""
+        return cls(d["kind"], d["value"], parameter, d["index"], d["state"], d["multipliers"])
+
+
+archive.register("SpecialPoint", SpecialPoint,
+                 encode=lambda sp: {"kind": sp.kind, "value": sp.value, "parameter": sp.parameter,
+                                    "index": sp.index, "state": sp.state, "multipliers": sp.multipliers},
+                 decode=lambda d: SpecialPoint(**d))
 
 
 class Branch(Bunch):
@@ -87,8 +138,9 @@ class Branch(Bunch):
         All Floquet multipliers inside the unit circle.
     multipliers : ndarray of complex, shape (k, m)
         Multipliers per point, by decreasing modulus (NaN where not computed).
-    special_points : list of (str, float)
-        ``(kind, parameter value)`` with kind ``"fold"`` or ``"period_doubling"``.
+    special_points : list of SpecialPoint
+        Typed records (kind, value, parameter, index, state, multipliers) that read as the pair
+        ``(kind, parameter value)``, kind ``"fold"`` or ``"period_doubling"``.
     special_details : list of dict
         Per special point: ``kind``, ``value``, ``index`` (the point after it),
         ``state``, ``multipliers``.
@@ -647,8 +699,8 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
                 if np.isfinite(f_prev) and np.isfinite(f_new) and f_prev * f_new < 0.0:
                     sp = _locate(problem, kind, y_prev, tau_prev, h, f_prev, tol, tol_special, max_corrector)
                     if sp is not None:
-                        specials.append((kind, float(sp["value"])))
                         sp["index"] = len(points)
+                        specials.append(SpecialPoint.from_detail(sp, parameter))
                         details.append(sp)
             points.append(y_new)
             tangents.append(tau_new)
@@ -697,7 +749,7 @@ def _join(down, up):
         states=np.concatenate([down.states[::-1], up.states[1:]]),
         stable=np.concatenate([down.stable[::-1], up.stable[1:]]),
         multipliers=np.concatenate([pad(down.multipliers)[::-1], pad(up.multipliers)[1:]]),
-        special_points=list(reversed(down.special_points)) + list(up.special_points),
+        special_points=[SpecialPoint.from_detail(d, up.parameter) for d in details],
         special_details=details, status=status,
         message=f"decreasing side: {down.message}. Increasing side: {up.message}",
         success=down.success and up.success, problem=up.problem, context=up.context,
