@@ -42,6 +42,7 @@ from collections import Counter
 import numpy as np
 
 import tps_solver as tps
+from tps_solver.analyses.localized import core_radius
 from validation.report import one_blas_thread, phase_distance
 from validation.shooting import e0_flat_state, e0_kinks, front_width, table
 
@@ -338,19 +339,6 @@ def _flat_pair(Gamma, M, s, n_phase=64):
     b = np.array([e0_flat_state(Gamma, M, p + 0.5 * T)[:2] for p in ph])
     k = int(np.argmax(np.abs(a[:, 1] - b[:, 1])))
     return a[0], b[0], float(ph[k]), a[k, 1], b[k, 1]
-
-
-def core_radius(nodes, zeta, z_in, z_out, level=0.5):
-    """Radius where theta = (zeta - z_out)/(z_in - z_out) first falls below ``level`` from the axis
-    (linear interpolation; 0 if theta(0) < level, nodes[-1] if it never falls)."""
-    th = (np.asarray(zeta, float) - z_out) / (z_in - z_out)
-    if th[0] < level:
-        return 0.0
-    below = np.flatnonzero(th < level)
-    if below.size == 0:
-        return float(nodes[-1])
-    i = int(below[0])
-    return float(nodes[i - 1] + (th[i - 1] - level) * (nodes[i] - nodes[i - 1]) / (th[i - 1] - th[i]))
 
 
 def fit_radii(R, dr, r_max, k0=1):

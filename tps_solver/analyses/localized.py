@@ -42,7 +42,7 @@ from tps_solver.model.soft_flat import SoftFlatOrbit
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.shooting.periodic import find_periodic_orbit
 
-__all__ = ["lattice_kink", "lattice_oscillon", "front_width", "interface_position"]
+__all__ = ["lattice_kink", "lattice_oscillon", "front_width", "interface_position", "core_radius"]
 
 
 class _SoftFarField:
@@ -321,6 +321,56 @@ def interface_position(x, profile, level=0.5):
     if i == 0:
         return float(x[0])
     return float(x[i - 1] + (level - th[i - 1]) * (x[i] - x[i - 1]) / (th[i] - th[i - 1]))
+
+
+def core_radius(nodes, zeta, z_in, z_out, level=0.5):
+    r"""Radius of an oscillon core: where :math:`\theta = (\zeta - z_{out})/(z_{in} - z_{out})` first falls below ``level``.
+
+    Scanned outwards from the axis with linear interpolation between the bracketing nodes; the
+    core and far-field heights ``z_in``, ``z_out`` are those of the two flat orbits at the same
+    instant (unlike :func:`interface_position`, which normalises by the profile's own ends, so
+    that a core that has shrunk to nothing has radius 0 instead of no interface).
+
+    Parameters
+    ----------
+    nodes : array_like of float, shape (n,)
+        Increasing radii.
+    zeta : array_like of float, shape (n,)
+    z_in, z_out : float
+        Heights of the core's and the far field's flat orbits (``z_in != z_out``).
+    level : float
+        In (0, 1).
+
+    Returns
+    -------
+    float
+        0 if the axis is already below ``level``, ``nodes[-1]`` if :math:`\theta` never falls below it.
+
+    Examples
+    --------
+    >>> r = np.arange(6.0)
+    >>> core_radius(r, [2.0, 2.0, 2.0, 0.0, 0.0, 0.0], 2.0, 0.0)
+    2.5
+    >>> core_radius(r, np.zeros(6), 2.0, 0.0), core_radius(r, np.full(6, 2.0), 2.0, 0.0)
+    (0.0, 5.0)
+    """
+    nodes = np.asarray(nodes, dtype=float)
+    zeta = np.asarray(zeta, dtype=float)
+    if nodes.ndim != 1 or zeta.shape != nodes.shape or nodes.size < 2:
+        raise ValueError(f"nodes and zeta must be 1-D of the same length >= 2, got {nodes.shape} and {zeta.shape}")
+    if not (np.isfinite(z_in) and np.isfinite(z_out)) or z_in == z_out:
+        raise ValueError(f"z_in and z_out must be finite and differ, got {z_in!r} and {z_out!r}")
+    level = float(level)
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level must lie in (0, 1), got {level!r}")
+    th = (zeta - z_out) / (z_in - z_out)
+    if th[0] < level:
+        return 0.0
+    below = np.flatnonzero(th < level)
+    if below.size == 0:
+        return float(nodes[-1])
+    i = int(below[0])
+    return float(nodes[i - 1] + (th[i - 1] - level) * (nodes[i] - nodes[i - 1]) / (th[i - 1] - th[i]))
 
 
 def front_width(orbit, n_samples=512):
