@@ -41,7 +41,7 @@ from tps_solver.core.costs import blas_threads, check_cost, cycle_cost, small_de
 from tps_solver.operators.lattice import Lattice
 from tps_solver.operators.modal import ModalBasis, kernel, kernel_integral
 from tps_solver.core.orbit import PeriodicOrbit
-from tps_solver.solvers.tps.engine import continuation as run_continuation, newton
+from tps_solver.solvers.tps.engine import TimePeriodicProblem, continuation as run_continuation, newton
 from tps_solver.solvers.tps.problems import bouncing_far_field, decoupled_spacing
 from tps_solver.solvers.tps.solvers import lattice_initial_tc, next_steps
 
@@ -162,7 +162,7 @@ def _row_blocks(n):
     return [slice(i, min(i + step, n)) for i in range(0, n, step)]
 
 
-class CycleProblem:
+class CycleProblem(TimePeriodicProblem):
     """F(tc) = 0 for the exact lattice cycle (the problem protocol of :mod:`tps_solver.solvers.tps.engine`)."""
 
     def __init__(self, lattice, flat, coupling):

@@ -23,14 +23,50 @@ The status codes of every solver that uses the engine are the table
 import math
 
 import numpy as np
-from scipy.sparse.linalg import LinearOperator, gmres
+from scipy.sparse.linalg import LinearOperator
 
+from tps_solver.core.newton import newton as core_newton
 from tps_solver.core.orbit import converged_message
+from tps_solver.core.problem import Problem
 
-__all__ = ["newton", "continuation", "fixed_point", "interrupted_message", "CORRECTOR_ITER", "SCHEMES"]
+__all__ = ["TimePeriodicProblem", "newton", "continuation", "fixed_point", "interrupted_message", "CORRECTOR_ITER", "SCHEMES"]
 
 SCHEMES = ("newton", "picard", "paper")
 CORRECTOR_ITER = 12      # Newton corrector steps per continuation point (quadratic: ~4 suffice)
+
+
+class TimePeriodicProblem(Problem):
+    """The problem protocol (:mod:`tps_solver.core.problem`) of the TPS problems, on top of
+    their ``residual(tc) -> (F, aux, phase)`` and ``jacobian_operator``: the Jacobian's action,
+    the Jacobi preconditioner (its diagonal, floored at 1e-3) and the step cap T/4.
+
+    Examples
+    --------
+    >>> from tps_solver import FlatLayer
+    >>> from tps_solver.solvers.tps.problems import ContinuumProblem
+    >>> flat = FlatLayer(Gamma=2.5, M=2, e=0.45)
+    >>> problem = ContinuumProblem("axisymmetric", 20.0, 4, flat, 8)
+    >>> isinstance(problem, TimePeriodicProblem)
+    True
+    >>> F, w, phase = problem.residual(np.full(4, flat.t0))
+    >>> J = problem.jacobian(np.full(4, flat.t0), F, (w, phase))
+    >>> J.shape, bool(np.allclose(problem.limit_step(None, np.full(4, 100.0)), problem.T / 4))
+    ((4, 4), True)
+    """
+
+    def jacobian(self, x, F, data):
+        J, slope = self.jacobian_operator(x, *data)
+        J.slope = slope
+        return J
+
+    def preconditioner(self, x, F, data, J):
+        big = np.maximum(np.abs(J.slope), 1e-3)
+        return LinearOperator(J.shape, matvec=lambda v: np.asarray(v).ravel() / big, dtype=float)
+
+    def limit_step(self, x, dx):
+        scale = float(np.max(np.abs(dx)))
+        cap = self.T / 4.0
+        return dx * (cap / scale) if scale > cap else dx
 
 
 def interrupted_message(where):
@@ -46,7 +82,8 @@ def interrupted_message(where):
 
 
 def newton(problem, tc, tol, max_iter, callback=None):
-    """Newton-GMRES with backtracking on max|F|.
+    """Newton-GMRES with backtracking on max|F|: the one Newton engine
+    (:func:`tps_solver.core.newton.newton`) with a Jacobi preconditioner, steps capped at T/4.
 
     A ``KeyboardInterrupt`` returns status 5 with the last accepted iterate (and the
     ``w`` that belongs to it).
@@ -70,61 +107,12 @@ def newton(problem, tc, tol, max_iter, callback=None):
     >>> message
     'converged: max|F| = ... <= tol = 1.0e-12'
     """
-    F, w, phase = problem.residual(tc)
-    history = [float(np.max(np.abs(F)))]
-    status, message = 1, f"iteration limit ({max_iter}) reached"
-    nit = 0
-    n = tc.size
-    done = 0                       # Newton steps accepted
-    try:
-        for nit in range(1, max_iter + 1):
-            if history[-1] <= tol:
-                nit -= 1
-                status, message = 0, converged_message(history[-1], tol)
-                break
-            J, slope = problem.jacobian_operator(tc, w, phase)
-            # Jacobi preconditioner: the local part of the Jacobian
-            diag = slope.copy()
-            big = np.maximum(np.abs(diag), 1e-3)
-            precond = LinearOperator((n, n), matvec=lambda v: np.asarray(v).ravel() / big, dtype=float)
-            rtol = min(1e-2, 0.1 * history[-1])
-            dx, info = gmres(J, -F, rtol=max(rtol, 1e-13), atol=0.0, restart=min(n, 50),
-                             maxiter=4, M=precond)
-            if not np.all(np.isfinite(dx)):
-                status, message = 2, "GMRES returned a non-finite step"
-                break
-            # backtracking line search on max|F|
-            lam, accepted = 1.0, False
-            step_cap = problem.T / 4.0
-            scale = np.max(np.abs(dx))
-            if scale > step_cap:
-                dx *= step_cap / scale
-            while lam >= 1.0 / 64:
-                trial = tc + lam * dx
-                F_t, w_t, phase_t = problem.residual(trial)
-                r_t = float(np.max(np.abs(F_t)))
-                if r_t < (1.0 - 1e-4 * lam) * history[-1] or r_t <= tol:
-                    accepted = True
-                    break
-                lam *= 0.5
-            if not accepted:
-                status = 2
-                message = (f"Newton stagnated at iteration {nit}: no decrease of max|F| = "
-                           f"{history[-1]:.3e} along the GMRES direction (GMRES info {info})")
-                nit -= 1
-                break
-            tc, F, w, phase = trial, F_t, w_t, phase_t
-            history.append(r_t)
-            done = nit
-            if callback is not None:
-                callback(nit, tc, r_t)
-        else:
-            if history[-1] <= tol:
-                status, message = 0, converged_message(history[-1], tol)
-    except KeyboardInterrupt:
-        del history[done + 1:]
-        return tc, w, 5, interrupted_message(f"in Newton step {done + 1}"), done, history
-    return tc, w, status, message, nit, history
+    cb = None if callback is None else (lambda state: callback(state.nit, state.x, state.residual))
+    out = core_newton(problem, tc, tol=tol, max_iter=max_iter, min_step=1.0 / 64, callback=cb)
+    message = out.message
+    if out.status == 5:
+        message = interrupted_message(f"in Newton step {out.nit + 1}")
+    return out.x, out.data[0], out.status, message, out.nit, [float(r) for r in out.history]
 
 
 def continuation(make_problem, tc, tol, max_iter, nu_start, callback=None, min_step=1e-2):

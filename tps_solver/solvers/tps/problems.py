@@ -10,12 +10,13 @@ from scipy.sparse.linalg import LinearOperator
 from tps_solver.operators.contact import contact_times
 from tps_solver.model.harmonics import centred, g_hat, mode_numbers
 from tps_solver.operators.helmholtz import HelmholtzSolver, LatticeHelmholtz
+from tps_solver.solvers.tps.engine import TimePeriodicProblem
 
 __all__ = ["ContinuumProblem", "LatticeProblem", "node_positions", "decoupled_spacing", "bouncing_far_field"]
 
 
 # --------------------------------------------------------------------- problem
-class ContinuumProblem:
+class ContinuumProblem(TimePeriodicProblem):
     """The discretised TPS problem on the solved half-domain.
 
     Parameters
