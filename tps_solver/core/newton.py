@@ -272,8 +272,8 @@ def newton(problem, x0, *, tol, max_iter, linear="auto", line_search="backtrack"
             err_t = math.inf
             while True:
                 tries += 1
-                trial = problem.project(x + lam * dx)
                 try:
+                    trial = problem.project(x + lam * dx)
                     F_t, *data_t = problem.residual(trial)
                     data_t = tuple(data_t)
                     n_res += 1

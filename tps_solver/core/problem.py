@@ -28,7 +28,8 @@ Optional (the defaults of :class:`Problem`)
 ``limit_step(x, dx) -> dx``
     a capped Newton step (default: unchanged);
 ``project(x) -> x``
-    the admissible point nearest a trial (default: unchanged);
+    the admissible point nearest a trial (default: unchanged), or :class:`Inadmissible`
+    when there is none (a contact order that a step would break);
 ``parameters`` and ``at(**values)``
     the parameters by name (a dict) and a copy of the problem at other values;
 ``monodromy(x, data)``

@@ -87,13 +87,13 @@ import time
 
 import numpy as np
 from numpy.polynomial.legendre import leggauss, legvander
-from scipy.linalg import lu_factor, lu_solve
 
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.orbit import PeriodicOrbit
 from tps_solver.core.pattern import ContactPattern
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
+from tps_solver.core.newton import newton
 from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_orbit
 from tps_solver.solvers.tps.stick_pattern import (StickPattern, check_pattern, check_with_fda, kink_state,
                                                   make_pattern, pattern_from_fda, pattern_from_orbit,
@@ -217,99 +217,29 @@ class StickSolution(PeriodicOrbit):
 
 
 def _newton(problem, x, tol, max_iter):
-    """Newton's method with a reused (chord) Jacobian while it contracts by 10 per step."""
+    """The one Newton engine (:func:`tps_solver.core.newton.newton`) with the dense Jacobian
+    reused as a chord while it contracts by 10 per step, after a least-squares start of the
+    linear unknowns."""
     F, st, v = problem.residual(x)
-    lu, fresh = None, False
     # the residual is affine in the impulses and reaction coefficients: start with their
     # least-squares values for the initial times (the initial reaction is unknown)
     # (only the cheap linear columns are needed for that; the time columns, the expensive part
     # of the Jacobian, are computed only if the times must move)
     if problem.n_unknowns > problem.n_theta:
-        Jm = problem.jacobian(x, st, v, F, times=False)
+        Jm = problem.jacobian_matrix(x, st, v, F, times=False)
         step = np.linalg.lstsq(Jm[:, problem.n_theta:], -F, rcond=None)[0]
         x_lin = x.copy()
         x_lin[problem.n_theta:] += step
-        F_lin, st_lin, v_lin = problem.residual(x_lin)
+        F_lin = problem.residual(x_lin)[0]
         if np.max(np.abs(F_lin)) < np.max(np.abs(F)):
-            x, F, st, v = x_lin, F_lin, st_lin, v_lin
-    history = [float(np.max(np.abs(F)))]
-    status, message, nit = 1, f"iteration limit ({max_iter}) reached", 0
-    n_jac = 0
-    nit = 0
-    while nit < max_iter:
-        if history[-1] <= tol:
-            break
-        if lu is None:
-            lu = _factor(problem.jacobian(x, st, v, F))
-            n_jac += 1
-            fresh = True
-        if isinstance(lu, str):
-            status, message = 8, f"singular or non-finite Jacobian at iteration {nit + 1}: {lu}"
-            break
-        with np.errstate(all="ignore"):
-            dx = -lu_solve(lu, F)
-        if not np.all(np.isfinite(dx)):
-            if not fresh:
-                lu = None
-                continue
-            status, message = 8, f"non-finite Newton step at iteration {nit + 1}"
-            break
-        # keep times ordered: limit the time step
-        cap = 0.25
-        big = np.max(np.abs(dx[:problem.n_theta])) if problem.n_theta else 0.0
-        if big > cap:
-            dx *= cap / big
-        lam, accepted = 1.0, False
-        while lam >= 1.0 / 256:
-            trial = x + lam * dx
-            try:
-                _validate_times(problem, trial)
-                F_t, st_t, v_t = problem.residual(trial)
-                r_t = float(np.max(np.abs(F_t)))
-            except ValueError:
-                r_t = math.inf
-            if np.isfinite(r_t) and (r_t < (1.0 - 1e-4 * lam) * history[-1] or r_t <= tol):
-                accepted = True
-                break
-            lam *= 0.5 if fresh else 0.0
-        if not accepted:
-            if not fresh:
-                lu = None
-                continue
-            status = 2
-            message = (f"Newton stagnated at iteration {nit + 1}: no decrease of max|F| = {history[-1]:.3e} "
-                       "along the Newton direction; try a better initial pattern (a longer FDA run) or "
-                       "more reaction terms (n_basis)")
-            break
-        nit += 1
-        if r_t > 0.1 * history[-1]:
-            lu = None
-        fresh = False
-        x, F, st, v = trial, F_t, st_t, v_t
-        history.append(r_t)
-    if history[-1] <= tol:
-        status, message = 0, f"converged: max|F| = {history[-1]:.3e} <= tol = {tol:.1e}"
-    elif status == 1:
-        message += f" with max|F| = {history[-1]:.3e}; raise max_iter or improve the initial pattern"
-    return x, status, message, nit, history
-
-
-def _factor(Jm):
-    try:
-        return lu_factor(Jm, check_finite=True)
-    except (ValueError, np.linalg.LinAlgError) as exc:
-        return str(exc)
-
-
-def _validate_times(problem, x):
-    t, tau_s, _, _ = problem.unpack(x)
-    a, b = problem.seg_ends(x[:problem.n_theta])
-    if np.any(b <= a):
-        raise ValueError("a stick segment collapsed")
-    for idx in problem.by_node:
-        tj = t[idx]
-        if np.any(np.diff(tj) <= 0) or tj[-1] - tj[0] >= problem.T:
-            raise ValueError("contact order changed")
+            x = x_lin
+    out = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", chord=0.1, min_step=1.0 / 256)
+    message = out.message
+    if out.status == 2:
+        message += "; try a better initial pattern (a longer FDA run) or more reaction terms (n_basis)"
+    elif out.status == 1:
+        message += f" with max|F| = {out.residual:.3e}; raise max_iter or improve the initial pattern"
+    return out.x, out.status, message, out.nit, [float(r) for r in out.history]
 
 
 def _harmonics(problem, x, N):

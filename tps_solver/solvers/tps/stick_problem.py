@@ -16,6 +16,7 @@ from numpy.polynomial.legendre import leggauss, legvander
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
+from tps_solver.core.problem import Inadmissible, Problem
 from tps_solver.model.sticking import sticking_orbit
 from tps_solver.operators.modal import kernel, kernel_integral
 
@@ -103,7 +104,7 @@ def flat_stick_orbit(Gamma, M=2):
 
 
 # ------------------------------------------------------------------ patterns
-class StickProblem:
+class StickProblem(Problem):
     """Unknowns, requests and residual of the impact-and-stick TPS on a Neumann lattice.
 
     Unknowns ``x = [t (C), tau (S), J (C), coef]`` with ``theta = [t, tau]`` the times.
@@ -468,7 +469,42 @@ class StickProblem:
         return self.equations(x, v), st, v
 
     # --------------------------------------------------------------- jacobian
-    def jacobian(self, x, st, v, F, times=True):
+    # ------------------------------------------------- the problem protocol (tps_solver.core.problem)
+    @property
+    def parameters(self):
+        """``Gamma`` and ``e`` by name (:meth:`at` rebuilds the problem at other values)."""
+        return {"Gamma": float(self.Gamma), "e": float(self.e)}
+
+    def at(self, **values):
+        """The problem of the same pattern at other ``Gamma`` or ``e``."""
+        unknown = sorted(set(values) - {"Gamma", "e"})
+        if unknown:
+            raise ValueError(f"parameter must be one of ['Gamma', 'e'], got {unknown[0]!r}")
+        return StickProblem(**{**self.inputs, **{k: float(v) for k, v in values.items()}})
+
+    def jacobian(self, x, F, data):
+        """The dense Jacobian (:meth:`jacobian_matrix`) from the data of :meth:`residual`."""
+        st, v = data
+        return self.jacobian_matrix(x, st, v, F)
+
+    def limit_step(self, x, dx):
+        """Keep the times ordered: the largest time step is capped at 0.25."""
+        big = float(np.max(np.abs(dx[:self.n_theta]))) if self.n_theta else 0.0
+        return dx * (0.25 / big) if big > 0.25 else dx
+
+    def project(self, x):
+        """``x`` itself if its contact order and stick segments are intact, else :class:`Inadmissible`."""
+        t = self.unpack(x)[0]
+        a, b = self.seg_ends(x[:self.n_theta])
+        if np.any(b <= a):
+            raise Inadmissible("a stick segment collapsed")
+        for idx in self.by_node:
+            tj = t[idx]
+            if np.any(np.diff(tj) <= 0) or tj[-1] - tj[0] >= self.T:
+                raise Inadmissible("contact order changed")
+        return x
+
+    def jacobian_matrix(self, x, st, v, F, times=True):
         """Dense Jacobian: exact in J and coef; in the times, the impulse kernels (which
         kink where two impacts coincide) analytically, the smooth rest by forward differences.
         ``times=False``: only the (cheap, exact) columns of the linear unknowns J and coef
