@@ -115,7 +115,7 @@ def _dense_factor(J):
 
 def newton(problem, x0, *, tol, max_iter, linear="auto", line_search="backtrack", merit="max",
            decrease=1e-4, min_step=1.0 / 64, max_backtracks=None, chord=None, xtol=None,
-           gmres_rtol=None, gmres_restart=None, gmres_maxiter=None, callback=None):
+           gmres_rtol=None, gmres_restart=None, gmres_maxiter=None, first=None, callback=None):
     """Newton's method on ``problem`` from ``x0`` (module docstring).
 
     Parameters
@@ -146,6 +146,9 @@ def newton(problem, x0, *, tol, max_iter, linear="auto", line_search="backtrack"
         ``max(min(1e-2, 0.1 * error), 1e-13)``).
     gmres_restart, gmres_maxiter : int, optional
         Restart length (default min(n, 50)) and number of restart cycles (default 4).
+    first : tuple, optional
+        What ``problem.residual(x0)`` returns, when the caller has it already (saves one
+        evaluation).
     callback : callable, optional
         ``callback(state)`` after every accepted step (module docstring).
 
@@ -186,9 +189,9 @@ def newton(problem, x0, *, tol, max_iter, linear="auto", line_search="backtrack"
         raise ValueError(f"linear must be 'auto', 'dense' or 'gmres', got {linear!r}")
     max_backtracks = 10 if max_backtracks is None else int(max_backtracks)
     x = np.array(x0, dtype=float)
-    F, *data = problem.residual(x)
+    F, *data = problem.residual(x) if first is None else first
     data = tuple(data)
-    n_res = 1
+    n_res = 1 if first is None else 0
     err = problem.error(F, data)
     phi = _merit(problem, F, data, merit)
     history, lams, lin_res, lin_prod = [err], [], [], []

@@ -66,6 +66,8 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from tps_solver.core.newton import newton
+from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 from tps_solver.solvers.fda.dense import PiecewiseFlow
 from tps_solver.solvers.shooting.floquet import fit_growth
@@ -248,105 +250,6 @@ class ShootingOrbit(PeriodicOrbit):
 #: FDA methods the period map may use ("soft-radau", the Radau reference, is left out: too slow).
 METHODS = ("exact", "point", "ode", "soft")
 
-
-class _MapError(Exception):
-    def __init__(self, status, message):
-        super().__init__(message)
-        self.status = status
-        self.message = message
-
-
-class _PeriodMap:
-    """x (free-node w, zeta at t_s) -> the same after one period, with bookkeeping."""
-
-    def __init__(self, lattice, Gamma, e, T, t_s, stuck, method, kw, max_events):
-        self.lattice, self.Gamma, self.e, self.T, self.t_s = lattice, Gamma, e, T, t_s
-        self.stuck = stuck.copy()
-        self.free = ~stuck
-        self.m = int(np.count_nonzero(self.free))
-        self.method, self.kw, self.max_events = method, kw, max_events
-        self.count = 0
-
-    def state(self, x):
-        n = self.lattice.n_nodes
-        w, z = np.zeros(n), np.zeros(n)
-        w[self.free] = x[:self.m]
-        z[self.free] = x[self.m:]
-        if self.method != "soft":
-            z = np.maximum(z, 0.0)
-        return w, z
-
-    def pack(self, w, z):
-        return np.concatenate((w[self.free], z[self.free]))
-
-    def run(self, x, periods=1, t_eval=None, record=False):
-        from tps_solver.solvers.fda import simulate
-
-        w, z = self.state(x)
-        kw = dict(self.kw)
-        if self.method != "soft":
-            kw["stuck0"] = self.stuck
-            kw["max_events_per_cycle"] = self.max_events
-        self.count += periods
-        run = simulate(self.lattice, self.Gamma, self.e, w, z, t_start=self.t_s,
-                       t_end=self.t_s + periods * self.T, method=self.method, t_eval=t_eval,
-                       record_segments=record, **kw)
-        if run.status == 6:
-            raise _MapError(6, f"event bound exceeded in the period map: {run.message}; raise "
-                               "max_events_per_period, raise stick_velocity (chatter turns into sticking "
-                               "sooner) or start closer to a periodic orbit")
-        if not run.success:
-            raise _MapError(3, f"the period map failed: {run.message}")
-        per = run.n_events / periods
-        if per > self.max_events:
-            raise _MapError(6, f"event bound exceeded: {per:.0f} events per period > max_events_per_period = "
-                               f"{self.max_events}; raise max_events_per_period or stick_velocity")
-        return run
-
-    def __call__(self, x):
-        run = self.run(x)
-        y = self.pack(run.w, run.zeta)
-        extra = 0.0
-        if self.method != "soft" and np.any(self.stuck):
-            extra = float(np.max(np.abs(np.concatenate((run.w[self.stuck], run.zeta[self.stuck])))))
-            if np.any(~run.stuck[self.stuck]):
-                extra = max(extra, 1e-300)     # a node stuck at the section is free after one period
-        return y, extra
-
-
-def _gmres(matvec, b, rtol, maxdim):
-    """GMRES for A d = b without restart (MGS Arnoldi with one reorthogonalisation).
-
-    Returns d, the relative residual reached and the number of products.
-    """
-    beta = float(np.linalg.norm(b))
-    if beta == 0.0:
-        return np.zeros_like(b), 0.0, 0
-    V = [b / beta]
-    H = np.zeros((maxdim + 1, maxdim))
-    e1 = np.zeros(maxdim + 1)
-    e1[0] = beta
-    y = np.zeros(0)
-    rel = 1.0
-    k = 0
-    for k in range(maxdim):
-        w = matvec(V[k])
-        for _ in range(2):
-            for j in range(k + 1):
-                c = float(np.dot(w, V[j]))
-                H[j, k] += c
-                w = w - c * V[j]
-        H[k + 1, k] = float(np.linalg.norm(w))
-        y, *_ = np.linalg.lstsq(H[:k + 2, :k + 1], e1[:k + 2], rcond=None)
-        rel = float(np.linalg.norm(e1[:k + 2] - H[:k + 2, :k + 1] @ y)) / beta
-        if rel <= rtol or H[k + 1, k] <= 1e-14 * beta:
-            break
-        V.append(w / H[k + 1, k])
-    d = np.column_stack(V[:y.size]) @ y
-    return d, rel, k + 1
-
-
-# ------------------------------------------------------------------ guesses
 
 def _same_lattice(a, b):
     return (a is b) or (a.n_nodes == b.n_nodes and a.geometry == b.geometry and a.boundary == b.boundary
@@ -618,7 +521,8 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         stuck = np.zeros(n, bool)
 
     def factory(t_s, st):
-        return _PeriodMap(lattice, Gamma, e, T, t_s, st, method, kw, max_events_per_period)
+        return PeriodMap(lattice, Gamma, e, T, t_s, stuck=st, method=method,
+                         max_events_per_period=max_events_per_period, fd_step=fd_step, **kw)
 
     history = []
     steps = []                      # (line-search step length, GMRES relative residual, products)
@@ -664,11 +568,11 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
                                                                         n_grid=n_grid)
                     n_maps += used
                     break
-                except _MapError as exc:
+                except PeriodMapError as exc:
                     n_maps += 1
                     if exc.status != 3:
                         raise
-    except _MapError as exc:
+    except PeriodMapError as exc:
         status, message = exc.status, exc.message + " (while choosing the section from the guess)"
         return _finish(result(), notes, start_clock)
     except KeyboardInterrupt:
@@ -683,72 +587,43 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
     x = pm.pack(w, z)
     nit = 0
     res = float("nan")
-    try:
-        Px, extra = pm(x)
-        F = Px - x
-        res = max(float(np.max(np.abs(F), initial=0.0)), extra)
-        history.append(res)
+    Px = None
+    last = {"nit": 0, "x": x}
+
+    def progress(state):
+        last.update(nit=state.nit, x=state.x)
+        history.append(state.residual)
+        steps.append((state.step, float("nan"), 0))
         if callback is not None:
-            callback(0, res)
-        while True:
-            if res <= tol:
-                status = 0 if extra == 0.0 else 7
-                break
-            if nit >= max_iter:
-                status = 1
-                break
-            scale = max(1.0, float(np.max(np.abs(x), initial=0.0)))
+            callback(state.nit, state.residual)
 
-            if method == "soft":        # the exact product (tps_solver.solvers.shooting.soft_monodromy), no differences
-                lin = SoftMonodromy.from_run(pm.run(x), *pm.state(x), pm.t_s)
-
-                def jv(v, lin=lin):
-                    return lin.jv(v) - v
-            else:
-                def jv(v, x=x, Px=Px, scale=scale):
-                    nv = float(np.max(np.abs(v)))
-                    if nv == 0.0:
-                        return np.zeros_like(v)
-                    h = fd_step * scale / nv
-                    zt = x[m:] + h * v[m:]
-                    if np.any(zt < 0.0):
-                        h = -h
-                    return (pm(x + h * v)[0] - Px) / h - v
-
-            d, rel, used = _gmres(jv, -F, gmres_rtol, krylov_dim)
-            f0 = float(np.linalg.norm(F))
-            # backtracking on phi(lam) = |F(x + lam d)|^2 with quadratic interpolation
-            # (phi'(0) = -2 phi(0) for an exact Newton direction), lam in [0.1, 0.5] x the last
-            lam, accepted = 1.0, False
-            for _ in range(10):
-                xt = x + lam * d
-                if method != "soft":
-                    xt[m:] = np.maximum(xt[m:], 0.0)
-                Pt, et = pm(xt)
-                Ft = Pt - xt
-                ft = float(np.linalg.norm(Ft))
-                if ft < (1.0 - 1e-4 * lam) * f0:
-                    accepted = True
-                    break
-                phi0, phil = f0 * f0, ft * ft if np.isfinite(ft) else np.inf
-                quad = phi0 * lam * lam / (phil - phi0 + 2.0 * phi0 * lam) if np.isfinite(phil) else 0.0
-                lam = float(np.clip(quad, 0.1 * lam, 0.5 * lam))
-            nit += 1
-            steps.append((lam if accepted else 0.0, rel, used))
-            if not accepted:
-                status = 2
-                message = (f"Newton stagnated at step {nit}: no decrease of |P(x) - x| along the Newton "
-                           f"direction (GMRES relative residual {rel:.2g} after {used} products); ")
-                break
-            x, Px, F, extra = xt, Pt, Ft, et
-            res = max(float(np.max(np.abs(F), initial=0.0)), extra)
-            history.append(res)
-            if callback is not None:
-                callback(nit, res)
-    except _MapError as exc:
+    try:
+        F0, Px0, extra0 = pm.residual(x)
+        history.append(pm.error(F0, (Px0, extra0)))
+        if callback is not None:
+            callback(0, history[-1])
+        # Newton--GMRES (one Krylov space of krylov_dim, no restart), backtracking on |F|_2 with
+        # the quadratic model (the one engine, tps_solver.core.newton)
+        sol = newton(pm, x, first=(F0, Px0, extra0), tol=tol, max_iter=max_iter, linear="gmres",
+                     line_search="quadratic", merit="2", gmres_rtol=gmres_rtol, gmres_restart=krylov_dim,
+                     gmres_maxiter=1, callback=progress)
+        x, nit, res = sol.x, sol.nit, sol.residual
+        Px, extra = sol.data
+        steps[:] = [(lam, rel, int(used)) for lam, rel, used in
+                    zip(sol.step_lengths, sol.linear_residuals, sol.linear_products)]
+        status, message = sol.status, sol.message
+        if status == 0 and extra != 0.0:
+            status = 7
+    except PeriodMapError as exc:
+        x, nit = last["x"], last["nit"]
+        res = history[-1] if history else float("nan")
         status, message = exc.status, exc.message + f" (at Newton step {nit})"
     except KeyboardInterrupt:
-        status, message = 5, f"interrupted at Newton step {nit}: the last iterate is returned"
+        x, nit = last["x"], last["nit"]
+        res = history[-1] if history else float("nan")
+        status = 5
+    if status == 5:
+        message = f"interrupted at Newton step {nit}: the last iterate is returned"
     out = result(x, pm, res, nit)
     if status == 0:
         out.message = f"converged: max|P(x) - x| = {res:.3g} after {nit} Newton steps"
@@ -756,7 +631,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         out.message = (f"iteration limit: max|P(x) - x| = {res:.3g} after {nit} Newton steps; raise max_iter, "
                        "time-step the guess for more periods, or raise krylov_dim")
     elif status == 2:
-        out.message = message + ("try a guess closer to the orbit (time-step more periods first), another "
+        out.message = message + ("; try a guess closer to the orbit (time-step more periods first), another "
                                  "section, or a larger krylov_dim; a multiplier near 1 (a neutral mode such as "
                                  "a front position) makes I - J ill-conditioned")
     elif status == 7:
@@ -768,13 +643,15 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         out.message = message + "; try another method, a smaller time_tol or a guess closer to the orbit"
     try:
         _pattern(out, pm, x, simultaneity)
-    except (_MapError, KeyboardInterrupt) as exc:
+    except (PeriodMapError, KeyboardInterrupt) as exc:
         notes.append(f"contact pattern not evaluated ({type(exc).__name__})")
+    if status == 0 and multipliers and Px is None:
+        Px = pm(x)[0]
     if status == 0 and multipliers:
         try:
             _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_multipliers,
                          differentiability_rtol, neutral_tol, growth_periods, notes)
-        except _MapError as exc:
+        except PeriodMapError as exc:
             notes.append(f"multipliers not computed: {exc.message}")
         except KeyboardInterrupt:
             notes.append("multipliers interrupted (KeyboardInterrupt): not computed")
