@@ -60,8 +60,11 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.newton import newton
 from tps_solver.core.orbit import STATUS
-from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
+from tps_solver.core.problem import Inadmissible, Problem
+from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
+from scipy.sparse.linalg import LinearOperator
 
 __all__ = ["continue_branch", "Branch", "SpecialPoint", "load_branch", "BRANCH_STATUS"]
 
@@ -249,7 +252,7 @@ def load_branch(path):
 
 
 
-class _Refused(Exception):
+class _Refused(Inadmissible):
     """The problem cannot evaluate this point (the orbit does not exist there)."""
 
 
@@ -373,127 +376,124 @@ class _CycleProblem:
         return mu
 
 
-class _OrbitProblem:
-    """Periodic orbits of the FDA by shooting, any contact pattern: F(x, p) = P(x; p) - x.
+class _ProtocolProblem:
+    """Any problem of the protocol (:mod:`tps_solver.core.problem`) continued in one of its
+    parameters: ``F(x, p)`` is its residual at ``problem.at(parameter=p)``; ``dF/dx`` its
+    Jacobian made dense (or ``monodromy_matrix - I`` where the problem has one, e.g. the
+    :class:`~tps_solver.solvers.shooting.period_map.PeriodMap`: exact for the soft contact, central
+    differences for point impacts); ``dF/dp`` a central difference; the multipliers those of its
+    monodromy (none if it has no monodromy)."""
 
-    ``x`` is the state ``(w, zeta)`` of all nodes at the section ``t_start`` of the start orbit
-    (which must have no node stuck there).  For the soft contact ``dP/dx`` is the exact
-    linearised period map (:class:`~tps_solver.solvers.shooting.soft_monodromy.SoftMonodromy`, one run; a central
-    difference only at a grazing switch); for point impacts it is a dense central difference of
-    the period map (4 n_nodes periods), so this is meant for small lattices.  ``dF/dp`` is a
-    central difference (two periods).  With point impacts the map is only piecewise smooth where
-    contacts coincide (docs/design.md, hazard 7), and the multipliers are those of the central
-    difference.
-    """
+    _RANGES = {"Gamma": (0.0, math.inf, "> 0"), "e": (0.0, 1.0, "in [0, 1)"), "cutoff": (0.0, math.inf, "> 0"),
+               "spacing": (0.0, math.inf, "> 0")}
 
-    name = "shooting"
-    parameters = ("Gamma", "e", "cutoff")
-
-    def __init__(self, orbit, parameter, multipliers, max_unknowns=64):
-        stuck = np.asarray(orbit.get("stuck0", np.zeros(orbit.lattice.n_nodes, bool)), dtype=bool)
-        if np.any(stuck):
-            raise ValueError("start must have no node stuck at its section t_start for continuation "
-                             f"(got {int(stuck.sum())}); shoot again with another t_start")
-        if parameter == "cutoff" and orbit.cutoff is None:
-            raise ValueError("parameter 'cutoff' needs a soft-contact start orbit (cutoff is None)")
-        self.lattice, self.method, self.t_s, self.T = orbit.lattice, orbit.method, orbit.t_start, orbit.period
-        n = self.lattice.n_nodes
-        if 2 * n > max_unknowns:
-            raise ValueError(f"start has {2 * n} unknowns; continuation of shooting orbits uses a dense "
-                             f"Jacobian and takes at most {max_unknowns}")
-        self.fixed = {"Gamma": orbit.Gamma, "e": orbit.e, "M": orbit.M}
-        if orbit.cutoff is not None:
-            self.fixed["cutoff"] = orbit.cutoff
-        self.parameter = parameter
-        self.x0 = np.concatenate([orbit.w0, orbit.zeta0])
-        self.p0 = self.fixed[parameter]
+    def __init__(self, problem, x0, parameter, multipliers, name="problem", max_unknowns=64, dense=True):
+        self.base = problem
+        self.name = name
+        self.parameters = tuple(problem.parameters)
+        self.parameter = check_choice(parameter, "parameter", self.parameters)
+        self.x0 = np.asarray(x0, dtype=float).copy()
+        if dense and self.x0.size > max_unknowns:
+            raise ValueError(f"start has {self.x0.size} unknowns; continuation uses a dense Jacobian and "
+                             f"takes at most {max_unknowns}")
+        self.fixed = {k: float(v) for k, v in problem.parameters.items()}
+        self.p0 = self.fixed[self.parameter]
         self.with_multipliers = multipliers
+        self._problems = {}
         self._last = None
-        self._last_run = None
 
-    def _period_map(self, x, p):
-        run = self._run(x, p)
-        return np.concatenate([run.w, run.zeta])
+    def _at(self, p):
+        key = float(p)
+        if key not in self._problems:
+            lo, hi, text = self._RANGES.get(self.parameter, (-math.inf, math.inf, ""))
+            if not (lo < key < hi or (self.parameter == "e" and key == 0.0)):
+                raise _Refused(f"parameter out of range: {self.parameter} = {key:.6g} (must be {text})")
+            if len(self._problems) > 8:
+                self._problems.clear()
+            self._problems[key] = self.base.at(**{self.parameter: key}) if key != self.p0 else self.base
+        return self._problems[key]
 
-    def _run(self, x, p):
-        """The period-map run from ``x`` at parameter ``p``; the last one is kept, since the
-        corrector asks for the residual and then the (soft: run-based) Jacobian at one point."""
-        key = (x.tobytes(), float(p))
-        if self._last_run is not None and self._last_run[0] == key:
-            return self._last_run[1]
-        run = self._new_run(x, p)
-        self._last_run = (key, run)
-        return run
-
-    def _new_run(self, x, p):
-        from tps_solver.solvers.fda import simulate
-
-        kw = dict(self.fixed)
-        kw[self.parameter] = p
-        if kw["Gamma"] <= 0.0 or not 0.0 <= kw["e"] < 1.0 or kw.get("cutoff", 1.0) <= 0.0:
-            raise _Refused(f"parameter out of range: {self.parameter} = {p:.6g}")
-        n = self.lattice.n_nodes
-        w, z = x[:n], x[n:]
-        extra = {} if "cutoff" not in kw else {"cutoff": kw["cutoff"]}
-        if self.method != "soft" and np.any(z < 0.0):
-            raise _Refused(f"a height is negative at {self.parameter} = {p:.6g}")
-        run = simulate(self.lattice, kw["Gamma"], kw["e"], w, z, t_start=self.t_s, t_end=self.t_s + self.T,
-                       method=self.method, **extra)
-        if not run.success or np.any(run.stuck):
-            raise _Refused(f"the period map at {self.parameter} = {p:.6g} failed or ended with stuck "
-                           f"nodes: {run.message}")
-        return run
-
-    def residual(self, x, p):
-        return self._period_map(x, p) - x
-
-    def _jacobians(self, x, p):
+    def _evaluate(self, x, p):
         key = (x.tobytes(), float(p))
         if self._last is not None and self._last[0] == key:
             return self._last[1]
-        P = None
-        if self.method == "soft":
-            # the exact linearised period map (tps_solver.solvers.shooting.soft_monodromy): one run, no differences
-            n = self.lattice.n_nodes
-            try:
-                P = SoftMonodromy.from_run(self._run(x, p), x[:n], x[n:], self.t_s).matrix()
-            except ValueError as exc:   # a grazing switch: the map is not differentiable there
-                if "grazing" not in str(exc):
-                    raise
-                P = None
-        if P is None:
-            h = 1e-6 * max(1.0, float(np.max(np.abs(x))))
-            cols = []
-            for k in range(x.size):
-                d = np.zeros_like(x)
-                d[k] = h
-                cols.append((self._period_map(x + d, p) - self._period_map(x - d, p)) / (2.0 * h))
-            P = np.array(cols).T
-        hp = 1e-6 * max(1.0, abs(p))
-        Jp = (self.residual(x, p + hp) - self.residual(x, p - hp)) / (2.0 * hp)
-        self._last = (key, (P, Jp))
-        return P, Jp
+        prob = self._at(p)
+        try:
+            F, *data = prob.residual(x)
+        except (Inadmissible, PeriodMapError) as exc:
+            raise _Refused(f"at {self.parameter} = {p:.6g}: {exc}") from None
+        out = (prob, np.asarray(F, dtype=float), tuple(data))
+        self._last = (key, out)
+        return out
+
+    def residual(self, x, p):
+        return self._evaluate(x, p)[1]
+
+    def _monodromy_matrix(self, x, p):
+        prob, F, data = self._evaluate(x, p)
+        try:
+            if hasattr(prob, "monodromy_matrix"):
+                return prob.monodromy_matrix(x)
+            mono = prob.monodromy(x, data)
+        except NotImplementedError:
+            return None
+        except PeriodMapError as exc:
+            raise _Refused(f"at {self.parameter} = {p:.6g}: {exc}") from None
+        return mono.matmat(np.eye(x.size)) if isinstance(mono, LinearOperator) else np.asarray(mono, float)
 
     def jacobian(self, x, p):
-        P, Jp = self._jacobians(x, p)
-        return P - np.eye(x.size), Jp
+        prob, F, data = self._evaluate(x, p)
+        if hasattr(prob, "monodromy_matrix"):
+            Jx = self._monodromy_matrix(x, p) - np.eye(x.size)
+        else:
+            J = prob.jacobian(x, F, data)
+            Jx = J.matmat(np.eye(x.size)) if isinstance(J, LinearOperator) else np.asarray(J, float)
+        hp = 1e-6 * max(1.0, abs(p))
+        Jp = (self.residual(x, p + hp) - self.residual(x, p - hp)) / (2.0 * hp)
+        return Jx, Jp
 
     def monodromy(self, x, p):
         if not self.with_multipliers:
             return None
-        return self._jacobians(x, p)[0]
+        return self._monodromy_matrix(x, p)
 
 
 def _make_problem(start, parameter, multipliers):
     from tps_solver.model.flat import FlatLayer
     from tps_solver.solvers.shooting.periodic import ShootingOrbit
     from tps_solver.solvers.tps.cycle import LatticeCycle
+    from tps_solver.solvers.tps.stick import StickSolution
 
+    if isinstance(start, tuple) and len(start) == 2 and isinstance(start[0], Problem):
+        problem, x0 = start
+        return _ProtocolProblem(problem, x0, parameter, multipliers, name=type(problem).__name__)
+    if isinstance(start, Problem):
+        raise ValueError("start must be a (problem, x0) pair for a problem of the protocol: the problem "
+                         "and a solution of it")
     if isinstance(start, ShootingOrbit):
         if not start.converged:
             raise ValueError("start must be a converged ShootingOrbit (got converged=False)")
-        parameter = check_choice(parameter, "parameter", _OrbitProblem.parameters)
-        return _OrbitProblem(start, parameter, multipliers)
+        stuck = np.asarray(start.get("stuck0", np.zeros(start.lattice.n_nodes, bool)), dtype=bool)
+        if np.any(stuck):
+            raise ValueError("start must have no node stuck at its section t_start for continuation "
+                             f"(got {int(stuck.sum())}); shoot again with another t_start")
+        if parameter == "cutoff" and start.cutoff is None:
+            raise ValueError("parameter 'cutoff' needs a soft-contact start orbit (cutoff is None)")
+        extra = {} if start.cutoff is None else {"cutoff": start.cutoff}
+        pm = PeriodMap(start.lattice, start.Gamma, start.e, start.period, start.t_start, method=start.method,
+                       require_free=True, **extra)
+        parameter = check_choice(parameter, "parameter", tuple(pm.parameters))
+        out = _ProtocolProblem(pm, np.concatenate([start.w0, start.zeta0]), parameter, multipliers,
+                               name="shooting")
+        out.fixed["M"] = float(start.M)
+        return out
+    if isinstance(start, StickSolution):
+        if not start.converged:
+            raise ValueError("start must be a converged StickSolution (got converged=False)")
+        parameter = check_choice(parameter, "parameter", ("Gamma", "e"))
+        out = _ProtocolProblem(start.problem, start.unknowns, parameter, False, name="stick", dense=False)
+        out.fixed["M"] = float(start.M)
+        return out
     if isinstance(start, FlatLayer):
         if getattr(start, "pattern", "bounce") not in ("bounce", None):
             raise ValueError(f"start must be a single-bounce FlatLayer for continuation, got pattern "
@@ -504,8 +504,8 @@ def _make_problem(start, parameter, multipliers):
             raise ValueError("start must be a converged LatticeCycle (got converged=False)")
         problem = _CycleProblem
     else:
-        raise ValueError(f"start must be a FlatLayer, a LatticeCycle or a ShootingOrbit, got "
-                         f"{type(start).__name__}")
+        raise ValueError(f"start must be a FlatLayer, a LatticeCycle, a ShootingOrbit, a StickSolution or "
+                         f"a (problem, x0) pair, got {type(start).__name__}")
     parameter = check_choice(parameter, "parameter", problem.parameters)
     if problem is _FlatProblem:
         return problem(start, parameter)
@@ -524,29 +524,40 @@ def _tangent(Jx, Jp, previous):
     return t / np.linalg.norm(t)
 
 
-def _correct(problem, y_pred, tangent, tol, max_iter):
-    """Newton on [F(y); tangent.(y - y_pred)] = 0; returns (y, converged, iterations)."""
-    y = y_pred.copy()
-    n = y.size - 1
-    for it in range(1, max_iter + 1):
-        F = problem.residual(y[:n], y[n])
-        if not np.all(np.isfinite(F)):
-            return y, False, it
-        g = float(np.dot(tangent, y - y_pred))
-        if np.max(np.abs(F)) <= tol and abs(g) <= tol:
-            return y, True, it - 1
-        Jx, Jp = problem.jacobian(y[:n], y[n])
-        A = np.vstack([np.hstack([Jx, Jp[:, None]]), tangent[None, :]])
+class _Bordered(Problem):
+    """Keller's bordered system [F(x, p); tangent.(y - y_pred)] = 0 in y = (x, p)."""
+
+    def __init__(self, problem, y_pred, tangent):
+        self.problem, self.y_pred, self.tangent = problem, y_pred, tangent
+        self.refused = None
+
+    def residual(self, y):
+        n = y.size - 1
         try:
-            dy = np.linalg.solve(A, -np.concatenate([F, [g]]))
-        except np.linalg.LinAlgError:
-            return y, False, it
-        y = y + dy
-        if np.max(np.abs(dy)) <= 1e-3 * tol:
-            F = problem.residual(y[:n], y[n])
-            return y, bool(np.max(np.abs(F)) <= tol), it
-    F = problem.residual(y[:n], y[n])
-    return y, bool(np.all(np.isfinite(F)) and np.max(np.abs(F)) <= tol), max_iter
+            F = self.problem.residual(y[:n], y[n])
+        except _Refused as exc:
+            self.refused = str(exc)
+            raise
+        return np.concatenate([F, [float(np.dot(self.tangent, y - self.y_pred))]]),
+
+    def jacobian(self, y, F, data):
+        n = y.size - 1
+        Jx, Jp = self.problem.jacobian(y[:n], y[n])
+        return np.vstack([np.hstack([Jx, Jp[:, None]]), self.tangent[None, :]])
+
+
+def _correct(problem, y_pred, tangent, tol, max_iter):
+    """The one Newton (plain steps, dense LU) on the bordered system; returns (y, converged,
+    iterations, why the problem refused a point or None)."""
+    bordered = _Bordered(problem, y_pred, tangent)
+    try:
+        out = newton(bordered, y_pred, tol=tol, max_iter=max_iter, linear="dense", line_search="none",
+                     xtol=1e-3 * tol)
+    except _Refused:
+        return y_pred.copy(), False, 0, bordered.refused
+    if out.status == 5:
+        raise KeyboardInterrupt
+    return out.x, out.converged, out.nit, None if out.converged else bordered.refused
 
 
 def _multipliers(problem, y):
@@ -654,7 +665,7 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     clock = time.perf_counter()
 
     y = np.concatenate([problem.x0, [p0]])
-    y, ok, _ = _correct(problem, y, np.eye(y.size)[-1], tol, max_corrector)
+    y, ok, _, _ = _correct(problem, y, np.eye(y.size)[-1], tol, max_corrector)
     if not ok:
         raise ValueError(f"start is not a solution of the continued problem to tol = {tol:g}")
     Jx, Jp = problem.jacobian(y[:-1], y[-1])
@@ -672,8 +683,7 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     try:
         while len(points) < max_points:
             y_prev, tau_prev = points[-1], tangents[-1]
-            y_new, ok, nit = _correct(problem, y_prev + h * tau_prev, tau_prev, tol, max_corrector)
-            refused = None
+            y_new, ok, nit, refused = _correct(problem, y_prev + h * tau_prev, tau_prev, tol, max_corrector)
             if ok:
                 try:
                     Jx, Jp = problem.jacobian(y_new[:-1], y_new[-1])
@@ -765,7 +775,7 @@ def _locate(problem, kind, y0, tau0, h, f0, tol, tol_special, max_corrector):
         if b - a <= tol_special * max(1.0, h):
             break
         s = 0.5 * (a + b)
-        y, ok, _ = _correct(problem, y0 + s * tau0, tau0, tol, max_corrector)
+        y, ok, _, _ = _correct(problem, y0 + s * tau0, tau0, tol, max_corrector)
         if not ok:
             return None
         try:

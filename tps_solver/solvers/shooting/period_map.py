@@ -65,6 +65,10 @@ class PeriodMap(Problem):
         :class:`PeriodMapError` (status 6).
     fd_step : float
         Relative step of the finite-difference monodromy action (point impacts).
+    require_free : bool
+        Raise :class:`PeriodMapError` (status 3) when a node is stuck to the plate at the end
+        of the period (where the map is not a smooth map of (w, zeta): continuation and the
+        stability check of free orbits).
     **simulate_kw
         Further keywords of :func:`~tps_solver.simulate` (``cutoff`` for the soft contact).
 
@@ -89,13 +93,14 @@ class PeriodMap(Problem):
     >>> F, Px, extra = pm.residual(x)
     >>> bool(pm.error(F, (Px, extra)) < 1e-12), pm.count
     (True, 1)
-    >>> mu = tps.solvers.shooting.floquet.multipliers(pm.matrix(x, 1e-7))
-    >>> bool(np.min(np.abs(mu - flat.multipliers()[0])) < 1e-5)
+    >>> from tps_solver.solvers.shooting.floquet import multipliers
+    >>> mu = multipliers(pm.matrix(x, 1e-7))
+    >>> bool(np.min(np.abs(mu - flat.floquet_multipliers()[0])) < 1e-7)
     True
     """
 
     def __init__(self, lattice, Gamma, e, period, t_start, *, stuck=None, method="exact",
-                 max_events_per_period=None, fd_step=1e-7, **simulate_kw):
+                 max_events_per_period=None, fd_step=1e-7, require_free=False, **simulate_kw):
         n = lattice.n_nodes
         self.lattice, self.Gamma, self.e, self.T, self.t_s = lattice, float(Gamma), float(e), float(period), \
             float(t_start)
@@ -106,6 +111,7 @@ class PeriodMap(Problem):
         self.kw = dict(simulate_kw)
         self.max_events = 100 * n if max_events_per_period is None else int(max_events_per_period)
         self.fd_step = float(fd_step)
+        self.require_free = bool(require_free)
         self.count = 0
 
     # ------------------------------------------------------------ parameters
@@ -127,7 +133,7 @@ class PeriodMap(Problem):
             kw["cutoff"] = float(values["cutoff"])
         return PeriodMap(self.lattice, values.get("Gamma", self.Gamma), values.get("e", self.e), self.T,
                          self.t_s, stuck=self.stuck, method=self.method, max_events_per_period=self.max_events,
-                         fd_step=self.fd_step, **kw)
+                         fd_step=self.fd_step, require_free=self.require_free, **kw)
 
     # ------------------------------------------------------------ the map
     def state(self, x):
@@ -171,6 +177,9 @@ class PeriodMap(Problem):
                                     "sooner) or start closer to a periodic orbit")
         if not run.success:
             raise PeriodMapError(3, f"the period map failed: {run.message}")
+        if self.require_free and np.any(run.stuck):
+            raise PeriodMapError(3, f"{int(np.sum(run.stuck))} node(s) stuck to the plate at the end of the "
+                                    "period: the period map is not a smooth map of (w, zeta) there")
         per = run.n_events / periods
         if per > self.max_events:
             raise PeriodMapError(6, f"event bound exceeded: {per:.0f} events per period > "
@@ -238,18 +247,34 @@ class PeriodMap(Problem):
         mono = self.monodromy(x, data)
         return LinearOperator(mono.shape, matvec=lambda v: mono.matvec(v) - np.asarray(v).ravel(), dtype=float)
 
-    def matrix(self, x, step, scheme="central"):
-        """The dense monodromy dP/dx at ``x`` by differences of relative ``step``.
+    def monodromy_matrix(self, x, step=1e-6):
+        """The dense monodromy: exact for the soft contact (central differences at a grazing
+        switch, where the map is not differentiable), central differences of relative ``step``
+        for point impacts."""
+        if self.method == "soft":
+            try:
+                return SoftMonodromy.from_run(self.run(x), *self.state(x), self.t_s).matrix()
+            except ValueError as exc:
+                if "grazing" not in str(exc):
+                    raise
+        return self.matrix(x, step, heights="free")
+
+    def matrix(self, x, step, scheme="central", relative=True, heights="halve"):
+        """The dense monodromy dP/dx at ``x`` by differences.
 
         Parameters
         ----------
         x : ndarray of float, shape (2 m,)
         step : float
-            Relative step (times ``max(1, max|x|)``); a height step is at most half the height
-            (point impacts: the state stays above the plate).
+            The step; relative (times ``max(1, max|x|)``) unless ``relative=False``.
         scheme : {"central", "one-sided"}
             ``"central"``: one matrix (2 maps per column); ``"one-sided"``: the forward and the
             backward difference matrices (``(Jf, Jb)``, 1 + 2 maps per column).
+        relative : bool
+        heights : {"halve", "clip", "free"}
+            Point impacts: a height step is at most half the height (``"halve"``), or the
+            perturbed height is clipped at 0 and the difference divided by the step actually
+            taken (``"clip"``), or heights are stepped like velocities (``"free"``).
 
         Returns
         -------
@@ -257,21 +282,26 @@ class PeriodMap(Problem):
         """
         if scheme not in ("central", "one-sided"):
             raise ValueError(f"scheme must be 'central' or 'one-sided', got {scheme!r}")
-        h = step * max(1.0, float(np.max(np.abs(x), initial=0.0)))
+        if heights not in ("halve", "clip", "free"):
+            raise ValueError(f"heights must be 'halve', 'clip' or 'free', got {heights!r}")
+        h = step * max(1.0, float(np.max(np.abs(x), initial=0.0))) if relative else float(step)
         size = x.size
         base = self(x)[0] if scheme == "one-sided" else None
         Jc, Jf, Jb = (np.empty((size, size)) for _ in range(3))
         for k in range(size):
-            hk = h
-            if self.method != "soft" and k >= self.m:
-                hk = min(h, 0.5 * x[k]) if x[k] > 0 else h
+            height = self.method != "soft" and k >= self.m
+            hp = hm = h
+            if height and heights == "halve":
+                hp = hm = min(h, 0.5 * x[k]) if x[k] > 0 else h
+            elif height and heights == "clip":
+                hm = x[k] - max(x[k] - h, 0.0)
             xp, xm = x.copy(), x.copy()
-            xp[k] += hk
-            xm[k] -= hk
+            xp[k] += hp
+            xm[k] -= hm
             fp, fm = self(xp)[0], self(xm)[0]
             if scheme == "central":
-                Jc[:, k] = (fp - fm) / (2.0 * hk)
+                Jc[:, k] = (fp - fm) / (hp + hm)
             else:
-                Jf[:, k] = (fp - base) / hk
-                Jb[:, k] = (base - fm) / hk
+                Jf[:, k] = (fp - base) / hp
+                Jb[:, k] = (base - fm) / hm
         return Jc if scheme == "central" else (Jf, Jb)

@@ -160,6 +160,17 @@ class StickSolution(PeriodicOrbit):
     ('TS', ['', 'smooth'])
     """
 
+    @property
+    def problem(self):
+        """The :class:`~tps_solver.solvers.tps.stick_problem.StickProblem` solved (the problem
+        protocol: :func:`~tps_solver.continue_branch` continues it in Gamma or e)."""
+        return self["_problem"]
+
+    @property
+    def unknowns(self):
+        """The solved unknowns ``x = [t, tau, J, coef]`` of :attr:`problem`, shape (n_unknowns,)."""
+        return self["_x"]
+
     def save(self, path):
         """Write the solution to ``path`` (``.npz`` appended if missing; see :mod:`tps_solver.core.archive`); returns the path."""
         return archive.save(self, path)
