@@ -75,6 +75,8 @@ import numpy as np
 
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.newton import newton
+from tps_solver.core.problem import Inadmissible, Problem
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 from tps_solver.model.ball import CONTACT, FREE, MODE_NAMES, STUCK, ClosedFormBall
@@ -341,6 +343,35 @@ def _jacobian(ball, t_section, x, p, h):
     return Jc, Jf, Jb, base
 
 
+class _CyclePolish(Problem):
+    """P^p(x) - x for the strobe point x = (w, zeta) of a p-cycle, its mode held fixed; steps that
+    leave the mode's admissible set or move more than the matching tolerance are refused."""
+
+    def __init__(self, ball, t_section, p, mode):
+        self.ball, self.t_section, self.p, self.mode = ball, t_section, p, mode
+
+    def residual(self, x):
+        q = (float(x[0]), float(x[1]), self.mode)
+        f = _period_map(self.ball, self.t_section, q, self.p)
+        if f[2] != self.mode:
+            return np.full(2, np.inf), f
+        return np.array([f[0] - q[0], f[1] - q[1]]), f
+
+    def jacobian(self, x, F, data):
+        q = (float(x[0]), float(x[1]), self.mode)
+        return _jacobian(self.ball, self.t_section, q, self.p, _FD_STEP)[0] - np.eye(2)
+
+    def limit_step(self, x, dx):
+        if float(np.max(np.abs(dx))) > _MATCH_TOL:
+            raise Inadmissible(f"step {float(np.max(np.abs(dx))):.2g} > the matching tolerance {_MATCH_TOL:g}")
+        return dx
+
+    def project(self, x):
+        if not _admissible((float(x[0]), float(x[1]), self.mode)):
+            raise Inadmissible("the step leaves the mode of the strobe point")
+        return x
+
+
 def _admissible(q):
     """A strobe point whose +-FD-step perturbations stay in the same mode (a base for the FD Jacobian)."""
     return (q[2] == FREE and q[1] > 100 * _FD_STEP) or (q[2] == CONTACT and q[1] < -100 * _FD_STEP)
@@ -359,21 +390,9 @@ def _analyse_cycle(ball, t_section, pts, p):
     f = _period_map(ball, t_section, x, p)
     res = _dist(f, x)
     if base:
-        for _ in range(6):
-            if not res > 1e-14:
-                break
-            J, _, _, f = _jacobian(ball, t_section, x, p, _FD_STEP)
-            try:
-                dx = np.linalg.solve(J - np.eye(2), [x[0] - f[0], x[1] - f[1]])
-            except np.linalg.LinAlgError:
-                break
-            xn = (x[0] + dx[0], x[1] + dx[1], x[2])
-            if not _admissible(xn) or np.max(np.abs(dx)) > _MATCH_TOL:
-                break
-            rn = _dist(_period_map(ball, t_section, xn, p), xn)
-            if not rn < res:
-                break
-            x, res = xn, rn
+        polish = newton(_CyclePolish(ball, t_section, p, x[2]), np.array(x[:2]), tol=1e-14, max_iter=6,
+                        linear="dense", decrease=0.0, min_step=1.0)
+        x, res = (float(polish.x[0]), float(polish.x[1]), x[2]), float(polish.residual)
         Jc, Jf, Jb, _ = _jacobian(ball, t_section, x, p, _FD_STEP)
         smooth = bool(np.max(np.abs(Jf - Jb)) <= 1e-4 * (1.0 + np.max(np.abs(Jc))))
         mu = floquet_multipliers(Jc)

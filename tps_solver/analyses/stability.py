@@ -55,6 +55,7 @@ import numpy as np
 from tps_solver.core import archive as io
 from tps_solver.core.bunch import Bunch
 from tps_solver.solvers.shooting.floquet import fit_growth
+from tps_solver.solvers.shooting.period_map import PeriodMap
 from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 from tps_solver.core.checks import check_choice, check_int, check_positive
 from tps_solver.core.costs import blas_threads, small_dense
@@ -167,50 +168,34 @@ def _sample_solution(sol, lattice, t):
     return w, z
 
 
-def _period_map(lattice, Gamma, e, w, z, t_s, T, method, kw):
-    run = simulate(lattice, Gamma, e, w, z, t_start=t_s, t_end=t_s + T, method=method, **kw)
-    if run.status == 5:
-        raise KeyboardInterrupt
-    if not run.success:
-        raise RuntimeError(run.message)
-    if np.any(run.stuck):
-        raise RuntimeError("a node is stuck at the section time; the period map is not a map of (w, zeta)")
-    return np.concatenate((run.w, run.zeta))
+def _period_map(lattice, Gamma, e, t_s, T, method, kw):
+    """The one period map (:class:`~tps_solver.solvers.shooting.period_map.PeriodMap`) of a free orbit."""
+    return PeriodMap(lattice, Gamma, e, T, t_s, method=method, require_free=True, **kw)
 
 
 def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6, tick=None):
     """Central-difference Jacobian of the period map restricted to uniform states (w, zeta)."""
+    pm = _period_map(lattice, Gamma, e, t_s, T, method, kw)
+    n = lattice.n_nodes
     J = np.empty((2, 2))
     for col in range(2):
         out = []
         for sign in (1.0, -1.0):
             dw = sign * h if col == 0 else 0.0
             dz = sign * h if col == 1 else 0.0
-            y = _period_map(lattice, Gamma, e, w + dw, z + dz, t_s, T, method, kw)
+            y = pm(pm.pack(w + dw, z + dz))[0]
             if tick is not None:
                 tick()
-            n = lattice.n_nodes
             out.append(np.array([np.mean(y[:n]), np.mean(y[n:])]))
         J[:, col] = (out[0] - out[1]) / (2.0 * h)
     return floquet_multipliers(J)
 
 
 def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h, tick=None):
-    """One-sided (forward, backward) Jacobians of the period map in (w, zeta)."""
-    n = lattice.n_nodes
-    y0 = np.concatenate((w, z))
-    base = _period_map(lattice, Gamma, e, w, z, t_s, T, method, kw)
-    Jp = np.empty((2 * n, 2 * n))
-    Jm = np.empty((2 * n, 2 * n))
-    for k in range(2 * n):
-        for sign, J in ((1.0, Jp), (-1.0, Jm)):
-            y = y0.copy()
-            y[k] = max(y[k] + sign * h, 0.0) if k >= n else y[k] + sign * h
-            step = y[k] - y0[k]
-            J[:, k] = (_period_map(lattice, Gamma, e, y[:n], y[n:], t_s, T, method, kw) - base) / step
-            if tick is not None:
-                tick()
-    return Jp, Jm
+    """One-sided (forward, backward) Jacobians of the period map in (w, zeta), absolute step h
+    (perturbed heights clipped at 0)."""
+    pm = _period_map(lattice, Gamma, e, t_s, T, method, kw)
+    return pm.matrix(pm.pack(w, z), h, scheme="one-sided", relative=False, heights="clip", tick=tick)
 
 
 def check_stability(solution, periods=20, n_nodes=None, method="exact", *, length=8.0,

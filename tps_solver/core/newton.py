@@ -268,7 +268,11 @@ def newton(problem, x0, *, tol, max_iter, linear="auto", line_search="backtrack"
                 if not np.all(np.isfinite(dx)):
                     status, message = 2, "GMRES returned a non-finite step"
                     break
-            dx = problem.limit_step(x, dx)
+            try:
+                dx = problem.limit_step(x, dx)
+            except Inadmissible as exc:
+                status, message = 2, f"no admissible Newton step at iteration {nit + 1}: {exc}"
+                break
             # ---- the line search
             lam, accepted, tries = 1.0, False, 0
             trial = F_t = data_t = None

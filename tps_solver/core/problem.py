@@ -26,7 +26,8 @@ Optional (the defaults of :class:`Problem`)
 ``preconditioner(x, F, data, J)``
     a ``LinearOperator`` approximating the inverse Jacobian for GMRES, or ``None``;
 ``limit_step(x, dx) -> dx``
-    a capped Newton step (default: unchanged);
+    a capped Newton step (default: unchanged), or :class:`Inadmissible` when no step of
+    that direction is acceptable (the engine then stops with status 2);
 ``project(x) -> x``
     the admissible point nearest a trial (default: unchanged), or :class:`Inadmissible`
     when there is none (a contact order that a step would break);

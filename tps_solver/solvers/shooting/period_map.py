@@ -31,7 +31,7 @@ from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 __all__ = ["PeriodMap", "PeriodMapError"]
 
 
-class PeriodMapError(Exception):
+class PeriodMapError(RuntimeError):
     """A period map that cannot be evaluated: ``status`` 6 (event bound) or 3 (the run failed).
 
     Examples
@@ -61,8 +61,8 @@ class PeriodMap(Problem):
         Nodes stuck to the plate at the section (no unknowns); default none.
     method : {"exact", "point", "ode", "soft"}
     max_events_per_period : int, optional
-        Event bound of one period (default ``100 * n_nodes``); beyond it the map raises
-        :class:`PeriodMapError` (status 6).
+        Event bound of one period (default: that of :func:`~tps_solver.simulate`); beyond it the
+        map raises :class:`PeriodMapError` (status 6).
     fd_step : float
         Relative step of the finite-difference monodromy action (point impacts).
     require_free : bool
@@ -109,7 +109,7 @@ class PeriodMap(Problem):
         self.m = int(np.count_nonzero(self.free))
         self.method = method
         self.kw = dict(simulate_kw)
-        self.max_events = 100 * n if max_events_per_period is None else int(max_events_per_period)
+        self.max_events = None if max_events_per_period is None else int(max_events_per_period)
         self.fd_step = float(fd_step)
         self.require_free = bool(require_free)
         self.count = 0
@@ -164,7 +164,8 @@ class PeriodMap(Problem):
         kw = dict(self.kw)
         if self.method != "soft":
             kw["stuck0"] = self.stuck
-            kw["max_events_per_cycle"] = self.max_events
+            if self.max_events is not None:
+                kw["max_events_per_cycle"] = self.max_events
         self.count += periods
         run = simulate(self.lattice, self.Gamma, self.e, w, z, t_start=self.t_s,
                        t_end=self.t_s + periods * self.T, method=self.method, t_eval=t_eval,
@@ -181,7 +182,7 @@ class PeriodMap(Problem):
             raise PeriodMapError(3, f"{int(np.sum(run.stuck))} node(s) stuck to the plate at the end of the "
                                     "period: the period map is not a smooth map of (w, zeta) there")
         per = run.n_events / periods
-        if per > self.max_events:
+        if self.max_events is not None and per > self.max_events:
             raise PeriodMapError(6, f"event bound exceeded: {per:.0f} events per period > "
                                     f"max_events_per_period = {self.max_events}; raise max_events_per_period "
                                     "or stick_velocity")
@@ -259,7 +260,7 @@ class PeriodMap(Problem):
                     raise
         return self.matrix(x, step, heights="free")
 
-    def matrix(self, x, step, scheme="central", relative=True, heights="halve"):
+    def matrix(self, x, step, scheme="central", relative=True, heights="halve", tick=None):
         """The dense monodromy dP/dx at ``x`` by differences.
 
         Parameters
@@ -275,6 +276,8 @@ class PeriodMap(Problem):
             Point impacts: a height step is at most half the height (``"halve"``), or the
             perturbed height is clipped at 0 and the difference divided by the step actually
             taken (``"clip"``), or heights are stepped like velocities (``"free"``).
+        tick : callable, optional
+            Called without arguments after every perturbed period map (progress).
 
         Returns
         -------
@@ -298,7 +301,12 @@ class PeriodMap(Problem):
             xp, xm = x.copy(), x.copy()
             xp[k] += hp
             xm[k] -= hm
-            fp, fm = self(xp)[0], self(xm)[0]
+            fp = self(xp)[0]
+            if tick is not None:
+                tick()
+            fm = self(xm)[0]
+            if tick is not None:
+                tick()
             if scheme == "central":
                 Jc[:, k] = (fp - fm) / (hp + hm)
             else:
