@@ -6,6 +6,7 @@ import pytest
 
 import tps_solver as tps
 from tps_solver.analyses.continuation import continue_branch, load_branch
+from tps_solver.core import problem as tps_problem
 
 
 @pytest.fixture(scope="module")
@@ -204,3 +205,41 @@ def test_special_points_are_typed_records_that_survive_save_and_load(flat_branch
     for a, b in zip(sps, back.special_points):
         assert type(b) is SpecialPoint and (a.kind, a.value, a.parameter, a.index) == (b.kind, b.value, b.parameter, b.index)
         assert np.array_equal(a.state, b.state) and np.array_equal(a.multipliers, b.multipliers)
+
+
+# ---------------------------------------------------------------- any problem of the protocol
+def test_impact_and_stick_orbits_continue_in_gamma_against_the_closed_form():
+    """The e = 0 flat orbit (impact, then stick) followed in Gamma by the library's continuation:
+    its contact times at every point against the closed-form orbit of model/sticking."""
+    from tps_solver.solvers.tps.stick_problem import flat_stick_orbit
+
+    start = tps.solve_stick_flat(Gamma=4.1)
+    br = tps.continue_branch(start, "Gamma", (4.0, 4.3), multipliers=False, step=0.02, max_step=0.05)
+    assert br.status == 0 and br.problem == "stick" and br.parameter_values.size >= 8
+    assert br.parameter_values[-1] > 4.3
+    C = start.problem.C
+    errors = [np.max(np.abs(np.sort(x[:C]) - np.sort(flat_stick_orbit(G, 2).t)))
+              for G, x in zip(br.parameter_values, br.states)]
+    assert max(errors) <= 100 * 1e-11                 # the corrector's tol times the sensitivity
+
+
+class _Circle(tps_problem.Problem):
+    """x^2 + p^2 = 1: a fold (turning point in p) at p = +-1, x = 0."""
+
+    parameters = {"p": 0.0}
+
+    def residual(self, x):
+        return np.array([x[0] ** 2 + self.parameters["p"] ** 2 - 1.0]), None
+
+    def jacobian(self, x, F, data):
+        return np.array([[2.0 * x[0]]])
+
+
+def test_a_user_problem_continues_through_its_fold():
+    br = tps.continue_branch((_Circle(), np.array([1.0])), "p", (-0.5, 2.0), multipliers=False,
+                             step=0.05, max_step=0.1)
+    folds = [sp for sp in br.special_points if sp.kind == "fold"]
+    assert len(folds) == 1 and abs(folds[0].value - 1.0) <= 1e-8
+    assert br.status == 0 and br.states[-1][0] < 0.0        # came back on the other side
+    with pytest.raises(ValueError, match="parameter"):
+        tps.continue_branch((_Circle(), np.array([1.0])), "q", (-0.5, 2.0))
