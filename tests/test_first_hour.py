@@ -239,7 +239,7 @@ def test_interrupted_newton_returns_consistent_iterate():
 
 def test_lattice_cycle_callback_and_interrupt():
     seen = []
-    cyc = tps.solve_lattice_cycle(tps.Lattice.planar(**COARSE), callback=lambda k, tc, r: seen.append(r))
+    cyc = tps.solve_lattice_cycle(tps.Lattice.planar(**COARSE), callback=lambda s: seen.append(s.residual))
     assert cyc.converged and len(seen) >= 2 and seen[-1] <= 1e-12
     cut = tps.solve_lattice_cycle(tps.Lattice.planar(**COARSE), callback=_StopAt(2))
     assert cut.status == 5 and not cut.converged and cut.coupling < 1.0

@@ -104,7 +104,7 @@ def test_keyboard_interrupt_keeps_the_last_accepted_iterate():
 
     def callback(state):
         seen.append(state.x.copy())
-        if state.nit == 2:
+        if state.iteration == 2:
             raise KeyboardInterrupt
 
     out = newton(Rosen(), np.array([-1.2, 1.0]), tol=1e-15, max_iter=30, callback=callback)

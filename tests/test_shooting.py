@@ -146,7 +146,7 @@ def test_e0_kink_has_two_contacts_per_node_and_is_confirmed_by_ten_periods():
     lat = tps.Lattice.planar(n_nodes=9, length=32.0)
     run = e0_kink_guess(lat, 4.1, M, periods=6)
     steps = []
-    orb = find_periodic_orbit(lat, Gamma=4.1, M=M, e=0.0, guess=run, callback=lambda i, r: steps.append((i, r)))
+    orb = find_periodic_orbit(lat, Gamma=4.1, M=M, e=0.0, guess=run, callback=lambda s: steps.append((s.iteration, s.residual)))
     assert orb.converged, orb.message
     assert [s[0] for s in steps] == list(range(orb.nit + 1))
     assert np.allclose([s[1] for s in steps], orb.residual_history)
@@ -226,9 +226,9 @@ def test_keyboard_interrupt_returns_the_last_iterate(coarse, coarse_orbit):
     guess = (o.w0 + 1e-2, o.zeta0 + 1e-2)
     seen = []
 
-    def cb(i, r):
-        seen.append(r)
-        if i == 1:
+    def cb(state):
+        seen.append(state.residual)
+        if state.iteration == 1:
             raise KeyboardInterrupt
 
     orb = find_periodic_orbit(lat, Gamma=G, M=M, e=E, guess=guess, t_start=o.t_start, callback=cb)

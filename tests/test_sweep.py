@@ -67,8 +67,8 @@ def test_process_pool_bit_identical_and_resumable_after_interrupt(tmp_path):
     log.mkdir()
     params = {"x": list(range(8)), "log_dir": [str(log)]}
 
-    def stop(done, total, p, result):
-        if done == 3:
+    def stop(state):
+        if state.iteration == 3:
             raise KeyboardInterrupt
 
     with ProcessPoolExecutor(max_workers=2, mp_context=multiprocessing.get_context("spawn")) as ex:
@@ -128,9 +128,9 @@ def test_keyboard_interrupt_keeps_finished_points_and_rerun_finishes(tmp_path):
     params = [{"x": x, "log_dir": str(log)} for x in range(6)]
     seen = []
 
-    def stop_after_two(done, total, p, result):
-        seen.append((done, total, p["x"], result))
-        if done == 2:
+    def stop_after_two(state):
+        seen.append((state.iteration, state.total, state.params["x"], state.result))
+        if state.iteration == 2:
             raise KeyboardInterrupt
 
     with pytest.raises(SweepInterrupted) as info:
@@ -142,7 +142,7 @@ def test_keyboard_interrupt_keeps_finished_points_and_rerun_finishes(tmp_path):
     assert "after 2 of 6 points" in str(exc) and Path(exc.store) == store
     assert seen == [(1, 6, 0, 0), (2, 6, 1, 1)]
     seen.clear()
-    res = sweep(counting_task, params, executor="serial", store=store, callback=lambda *a: seen.append(a),
+    res = sweep(counting_task, params, executor="serial", store=store, callback=lambda s: seen.append((s.iteration,)),
                 progress=False)
     assert res == [x * x for x in range(6)]
     assert _calls(log) == [0, 1, 2, 3, 4, 5]               # each point computed exactly once overall
@@ -178,7 +178,7 @@ def test_param_key_is_stable_and_type_exact():
 def test_progress_bar_and_callback_run(capsys):
     pytest.importorskip("tqdm")
     got = []
-    res = sweep(flat_task, GRID, executor="serial", progress=True, callback=lambda *a: got.append(a[:2]))
+    res = sweep(flat_task, GRID, executor="serial", progress=True, callback=lambda s: got.append((s.iteration, s.total)))
     assert len(res) == 6 and got == [(i, 6) for i in range(1, 7)]
     assert "6/6" in capsys.readouterr().err
 

@@ -496,7 +496,7 @@ def shoot(run, max_iter=12, krylov_dim=40, budget=None):
     """
     start = time.perf_counter()
 
-    def callback(iteration, residual):
+    def callback(state):
         if budget is not None and time.perf_counter() - start > budget:
             raise KeyboardInterrupt
     geometry, dx, extent = run["geometry"], run["dx"], run["extent"]

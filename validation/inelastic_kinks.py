@@ -245,8 +245,8 @@ def run(Gamma, dx, **kw):
     """Compute :func:`kink_row` and save it to ``SCRATCH`` (JSON row + pickled orbit)."""
     os.makedirs(SCRATCH, exist_ok=True)
 
-    def cb(i, res):
-        print(f"    G={Gamma:g} dx={dx:g} Newton step {i}: residual {res:.3g}", flush=True)
+    def cb(state):
+        print(f"    G={Gamma:g} dx={dx:g} Newton step {state.iteration}: residual {state.residual:.3g}", flush=True)
 
     with one_blas_thread():
         row = kink_row(Gamma, dx, callback=cb, **kw)

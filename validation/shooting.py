@@ -237,8 +237,8 @@ def table(rows, keys):
     return markdown_table(rows, [(k, lambda r, k=k: _fmt(r.get(k))) for k in keys])
 
 
-def _progress(i, r):
-    print(f"    Newton step {i}: residual {r:.3g}", flush=True)
+def _progress(state):
+    print(f"    Newton step {state.iteration}: residual {state.residual:.3g}", flush=True)
 
 
 def main(parts=("coarse", "soft", "e0", "paper")):

@@ -282,9 +282,9 @@ def shoot(dx, w, zeta, t, n_nodes=None, cutoff=CUTOFF, max_iter=20, krylov_dim=N
     lat = kink_lattice(dx, n_nodes)
     wall, cpu = time.perf_counter(), time.process_time()
 
-    def cb(i, r):
+    def cb(state):
         if callback is not None:
-            callback(i, r)
+            callback(state)
         if budget is not None and time.perf_counter() - wall > budget:
             raise KeyboardInterrupt
     orb = tps.find_periodic_orbit(lat, Gamma=GAMMA, M=M, e=E, cutoff=cutoff, guess=(w, zeta), t_start=t,

@@ -98,7 +98,7 @@ def run(args, geometry):
     from tps_solver.core.progress import Progress
 
     with Progress(f"{'kink' if geometry == 'planar' else 'oscillon'} TPS") as bar:
-        common["callback"] = bar.newton
+        common["callback"] = bar
         if geometry == "planar":
             sol = tps.solve_kink(length=args.size, **common)
         else:

@@ -53,9 +53,9 @@ def run(args):
             return 1
         multipliers = not args.no_multipliers
 
-    def progress(k, value, stable):
-        print(f"  point {k:4d}: {args.parameter} = {value:.10g}  {'stable' if stable else 'unstable'}",
-              flush=True)
+    def progress(state):
+        print(f"  point {state.iteration:4d}: {args.parameter} = {state.parameter_value:.10g}  "
+              f"{'stable' if state.stable else 'unstable'}", flush=True)
 
     br = tps.continue_branch(start, args.parameter, tuple(args.bounds), bothsides=not args.one_side,
                              multipliers=multipliers, callback=progress)

@@ -36,8 +36,8 @@ def run(args):
     check_int(n, "--length/--dx (number of nodes)", minimum=3, maximum=2000)
     lat = tps.Lattice.planar(n_nodes=n, length=length)
 
-    def progress(k, res):
-        print(f"  Newton {k:3d}: max|P(x) - x| = {res:.3e}", flush=True)
+    def progress(state):
+        print(f"  Newton {state.iteration:3d}: max|P(x) - x| = {state.residual:.3e}", flush=True)
 
     print(f"lattice kink: Gamma = {args.gamma:g}, e = {args.e:g}, M = {args.M}, {n} nodes, dx = {dx:g}, "
           f"{'soft contact, cutoff = %g' % args.cutoff if args.cutoff else 'point impacts'}", flush=True)

@@ -61,6 +61,7 @@ from tps_solver.core import archive
 from tps_solver.core.checks import check_choice, check_int, check_positive, check_real
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.newton import newton
+from tps_solver.core.progress import progress_state
 from tps_solver.core.orbit import STATUS
 from tps_solver.core.problem import Inadmissible, Problem
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
@@ -614,7 +615,9 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     max_corrector : int
         Newton iterations per corrector.
     callback : callable, optional
-        ``callback(k, parameter_value, stable)`` after each accepted point.
+        ``callback(state)`` after each accepted point (a
+        :class:`~tps_solver.core.progress.ProgressState`: stage ``"continuation"``,
+        ``iteration`` k, ``parameter``, ``parameter_value``, ``stable``).
 
     Returns
     -------
@@ -717,7 +720,9 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
             mus.append(mu)
             pds.append(pd)
             if callback is not None:
-                callback(len(points) - 1, float(y_new[-1]), bool(mu.size and np.max(np.abs(mu)) < 1.0))
+                callback(progress_state("continuation", len(points) - 1, parameter=parameter,
+                                        parameter_value=float(y_new[-1]),
+                                        stable=bool(mu.size and np.max(np.abs(mu)) < 1.0)))
             if not lo <= y_new[-1] <= hi:
                 status, message = 0, f"left the interval [{lo:g}, {hi:g}] at {parameter} = {y_new[-1]:.10g}"
                 break

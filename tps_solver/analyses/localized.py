@@ -174,7 +174,7 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
     simulate_kw : dict, optional
         Keywords of :func:`~tps_solver.simulate` used by both the settling run and the period map.
     callback : callable, optional
-        ``callback(iteration, residual)`` after every Newton step.
+        ``callback(state)`` after every Newton step (as :func:`~tps_solver.find_periodic_orbit`).
     **shooting_kw
         Further keywords of :func:`~tps_solver.find_periodic_orbit` (``tol``, ``max_iter``,
         ``n_multipliers``, ``dense_max``, ...).

@@ -44,8 +44,8 @@ What is measured
 Only periodic orbits are checked: a TPS result with ``converged = False`` is refused
 (``ValueError``), since its fields are not a periodic orbit of anything.
 
-Cost and interrupts: ``callback(progress)`` receives a :class:`~tps_solver.core.bunch.Bunch`
-with ``stage``, ``fraction`` (of the whole check) and ``periods_done``; a
+Cost and interrupts: ``callback(state)`` receives a
+:class:`~tps_solver.core.progress.ProgressState` with ``stage``, ``fraction`` (of the whole check) and ``periods_done``; a
 ``KeyboardInterrupt`` returns what was measured so far with ``interrupted = True``.
 The small dense kernels run on one BLAS thread (:func:`tps_solver.core.costs.blas_threads`).
 """
@@ -54,6 +54,7 @@ import numpy as np
 
 from tps_solver.core import archive as io
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.progress import progress_state
 from tps_solver.solvers.shooting.floquet import fit_growth
 from tps_solver.solvers.shooting.period_map import PeriodMap
 from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
@@ -246,7 +247,7 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         Soft-contact length for ``method="soft"`` (required there); a flat layer is then
         compared with the soft model's own flat orbit.
     callback : callable, optional
-        ``callback(progress)`` during the check, ``progress`` a Bunch with ``stage``
+        ``callback(state)`` during the check, ``state`` a :class:`~tps_solver.core.progress.ProgressState` with ``stage``
         (``"reference"``, ``"perturbed"``, ``"uniform mode"``, ``"jacobian"``), ``fraction``
         (of the whole check, in [0, 1]) and ``periods_done``.
     **simulate_kw
@@ -352,7 +353,7 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
     def report(stage, within=0.0):
         if callback is not None:
             at = done["periods"] + within
-            callback(Bunch(stage=stage, fraction=min(1.0, at / total), periods_done=at))
+            callback(progress_state(stage, at, fraction=min(1.0, at / total), periods_done=at))
 
     def runner(stage, length):
         def cb(progress):

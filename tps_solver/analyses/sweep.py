@@ -25,7 +25,7 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   on the ``tps_solver.sweep`` logger and the point is computed again.
 * **Progress.**  A tqdm bar when tqdm is installed (``pip install
   tps-solver[progress]``), otherwise log records on the ``tps_solver``
-  logger (:class:`tps_solver.core.progress.Progress`, the package's one progress display); ``callback(done, total, params, result)`` is called in this process
+  logger (:class:`tps_solver.core.progress.Progress`, the package's one progress display); ``callback(state)`` is called in this process
   after every computed point.
 * **Interruption.**  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the
   callback) cancels the points not yet started and raises
@@ -63,7 +63,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
-from tps_solver.core.progress import Progress
+from tps_solver.core.progress import Progress, progress_state
 
 __all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted"]
 
@@ -454,8 +454,9 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
         Directory of finished points (module docstring); points found there
         are not recomputed.
     callback : callable, optional
-        ``callback(done, total, params, result)`` after every computed point,
-        in this process; ``done`` counts the points loaded from the store too.
+        ``callback(state)`` after every computed point, in this process: a
+        :class:`~tps_solver.core.progress.ProgressState` with stage ``"sweep"``, ``iteration`` the points done (those
+        loaded from the store too), ``total``, ``fraction``, ``params`` and ``result``.
     progress : bool, optional
         Show progress (tqdm if installed, else ``logging``); default True.
     max_workers : int, optional
@@ -537,7 +538,8 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
         for i in idx:
             bar.update()
             if callback is not None:
-                callback(int(finished.sum()), n, points[i], value)
+                callback(progress_state("sweep", int(finished.sum()), fraction=float(finished.sum()) / n, total=n,
+                                        params=points[i], result=value))
 
     def interrupted(exc):
         done = int(finished.sum())

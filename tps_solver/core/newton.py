@@ -29,9 +29,10 @@ limit, 2 stagnation (or a non-finite Krylov step, a non-finite residual, a step 
 
 The callback convention
 -----------------------
-``callback(state)`` after every accepted step, where ``state`` is a
-:class:`~tps_solver.core.bunch.Bunch` with ``nit`` (steps taken), ``x`` (the iterate),
-``residual`` (its ``error``) and ``step`` (the line-search length).
+``callback(state)`` after every accepted step, ``state`` the package's one
+:class:`~tps_solver.core.progress.ProgressState`: stage ``"newton"``, ``iteration`` (steps
+taken), ``residual`` (the iterate's ``error``), ``x`` (the iterate) and ``step`` (the
+line-search length).
 """
 import math
 import warnings
@@ -42,6 +43,7 @@ from scipy.sparse.linalg import LinearOperator, gmres
 
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.orbit import STATUS, converged_message, outcome
+from tps_solver.core.progress import progress_state
 from tps_solver.core.problem import Inadmissible
 
 __all__ = ["newton", "NewtonResult", "LINE_SEARCHES"]
@@ -327,7 +329,7 @@ def newton(problem, x0, *, tol, max_iter, linear="auto", line_search="backtrack"
             lin_res.append(rel)
             lin_prod.append(used)
             if callback is not None:
-                callback(Bunch(nit=nit, x=x, residual=err, step=lam))
+                callback(progress_state("newton", nit, residual=err, x=x, step=lam))
             if xtol is not None and float(np.max(np.abs(lam * dx))) <= xtol and err > tol:
                 status, message = 2, (f"the Newton step fell below xtol = {xtol:.1e} with max|F| = "
                                       f"{err:.3e} > tol = {tol:.1e}")

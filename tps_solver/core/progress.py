@@ -1,23 +1,58 @@
-"""One progress display for the long-running calls: a tqdm bar when tqdm is installed, else logging.
+"""The one callback convention and the one progress display of the long-running calls.
 
-:class:`Progress` is the only progress wrapper of the package.  It serves three kinds of
-callbacks:
+The callback convention
+-----------------------
+Every ``callback`` of the package -- the TPS solvers, the lattice cycle, shooting,
+:func:`~tps_solver.simulate`, :func:`~tps_solver.check_stability`,
+:func:`~tps_solver.continue_branch`, :func:`~tps_solver.sweep`, the one Newton -- is called as
+``callback(state)`` with one :class:`ProgressState`: a Bunch whose fields ``stage`` (str),
+``iteration`` (int), ``fraction`` (float in [0, 1], NaN when the end is not known in advance)
+and ``residual`` (float, NaN where there is none) are always present, next to the fields of
+its stage (``tc`` or ``x``, ``parameter_value`` and ``stable``, ``params`` and ``result``,
+``t``, ...; each call documents them).  Raising ``KeyboardInterrupt`` in a callback stops the
+call, which returns what it has (status 5).
 
-* :meth:`Progress.newton` -- ``callback(iteration, tc, residual)`` of the TPS solvers, of
-  :func:`~tps_solver.solve_lattice_cycle` and of the continuation (one step done);
-* :meth:`Progress.fraction` -- ``callback(progress)`` of :func:`~tps_solver.simulate` and
-  :func:`~tps_solver.check_stability` (``progress.fraction`` in [0, 1]);
-* :meth:`Progress.update` -- a counter of finished work items (:func:`~tps_solver.sweep`).
+The progress display
+--------------------
+:class:`Progress` is the only progress wrapper: an instance is itself such a callback (a
+percentage bar when ``fraction`` is known, the step and residual otherwise), and
+:meth:`Progress.update` counts finished work items (:func:`~tps_solver.sweep`).
 
 tqdm is optional and imported lazily, when the first update arrives (so a call that fails at
 once prints nothing); without it the updates become ``logging`` lines of the logger
 ``tps_solver`` (at most one per tenth of the work for fractions and counts).
 """
 import logging
+import math
 
-__all__ = ["Progress"]
+from tps_solver.core.bunch import Bunch
+
+__all__ = ["Progress", "ProgressState", "progress_state"]
 
 _LOG = logging.getLogger("tps_solver")
+
+
+class ProgressState(Bunch):
+    """The one argument of every callback (module docstring).
+
+    Examples
+    --------
+    >>> state = progress_state("newton", 3, residual=1e-8, tc=None)
+    >>> state.stage, state.iteration, state.residual, math.isnan(state.fraction)
+    ('newton', 3, 1e-08, True)
+    """
+
+
+def progress_state(stage, iteration=0, fraction=math.nan, residual=math.nan, **fields):
+    """A :class:`ProgressState` with the four fields every callback receives, and ``fields``.
+
+    Examples
+    --------
+    >>> progress_state("sweep", 2, fraction=0.5, total=4).total
+    4
+    """
+    return ProgressState(stage=str(stage), iteration=int(iteration), fraction=float(fraction),
+                         residual=float(residual), **fields)
 
 
 class Progress:
@@ -37,16 +72,14 @@ class Progress:
     unit : str, optional
         Unit of the counted items (default ``"it"``).
 
-    Use :meth:`newton` as the ``callback`` of the TPS solvers and of
-    :func:`~tps_solver.solve_lattice_cycle` (``callback(iteration, tc, residual)``),
-    :meth:`fraction` as the ``callback`` of :func:`~tps_solver.simulate` and
-    :func:`~tps_solver.check_stability` (``callback(progress)`` with ``progress.fraction``),
-    :meth:`update` to count finished items.
+    Pass the instance itself as the ``callback`` of any call (the one convention of the module
+    docstring); use :meth:`update` to count finished items.
 
     Examples
     --------
     >>> with Progress("demo", enabled=False) as bar:
-    ...     bar.newton(1, None, 1e-3)
+    ...     bar(progress_state("newton", 1, residual=1e-3))
+    ...     bar(progress_state("simulate", 0, fraction=0.5))
     >>> with Progress("points", total=3, enabled=False) as bar:
     ...     for _ in range(3):
     ...         bar.update()
@@ -79,23 +112,36 @@ class Progress:
         else:
             self.bar = tqdm(total=100, desc=self.desc, unit="%", dynamic_ncols=True, leave=False)
 
-    def newton(self, iteration, tc, residual):
-        """Callback of the Newton solvers: one step (or continuation point) done."""
+    def __call__(self, state):
+        """The callback: a percentage when ``state.fraction`` is known, else the step and residual."""
+        if math.isfinite(state.fraction):
+            self._fraction(state.fraction)
+            return
         self._steps += 1
         if not self.enabled:
             return
         self._open()
+        text = f"step {state.iteration}"
+        if math.isfinite(state.residual):
+            text += f", max|F| = {state.residual:.3e}"
         if self.bar is not None:
-            self.bar.set_postfix_str(f"step {iteration}, max|F| {residual:.2e}", refresh=True)
+            self.bar.set_postfix_str(text, refresh=True)
         else:
-            _LOG.info("%s: step %d, max|F| = %.3e", self.desc, iteration, residual)
+            _LOG.info("%s: %s", self.desc, text)
+
+    def newton(self, iteration, tc, residual):
+        """The display of one Newton step given positionally (as ``self(state)`` of stage "newton")."""
+        self(progress_state("newton", iteration, residual=residual, tc=tc))
 
     def fraction(self, progress):
-        """Callback of the FDA (``progress.fraction`` in [0, 1] of the run)."""
+        """The display of a fraction of the work done (``progress.fraction`` in [0, 1])."""
+        self._fraction(float(getattr(progress, "fraction", 0.0)))
+
+    def _fraction(self, frac):
         if not self.enabled:
             return
         self._open()
-        frac = float(getattr(progress, "fraction", 0.0))
+        frac = float(frac)
         if self.bar is not None:
             self.bar.n = int(round(100 * min(1.0, frac)))
             self.bar.refresh()

@@ -11,6 +11,7 @@ import numpy as np
 
 from tps_solver.core.checks import check_array, check_choice, check_int, check_nonnegative, check_positive, check_restitution
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.progress import progress_state
 from tps_solver.core.costs import blas_threads, small_dense
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda.common import SimulationResult, check_time_window, stack_samples
@@ -64,9 +65,10 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     t_eval : array_like of float, optional
         Output times in ``[t_start, t_end]``.
     callback : callable, optional
-        ``callback(progress)`` once per forcing cycle :math:`2\pi` of simulated time and at the
-        end, with a :class:`~tps_solver.core.bunch.Bunch` ``progress`` holding ``t``, ``t_start``,
-        ``t_end``, ``fraction`` (of the interval done) and ``n_events``.  A
+        ``callback(state)`` once per forcing cycle :math:`2\pi` of simulated time and at the
+        end, ``state`` a :class:`~tps_solver.core.progress.ProgressState` (stage ``"simulate"``, ``iteration`` the forcing
+        cycles done, ``fraction`` of the interval done, ``t``, ``t_start``, ``t_end``,
+        ``n_events``).  A
         ``KeyboardInterrupt`` returns ``status=5`` with the state reached.
     record_segments : bool, keyword-only
         Keep the state after every event set (and at ``t_start``) in ``segments``: between two
@@ -244,5 +246,6 @@ def _segments(records, n):
 
 
 def _progress(t, t_start, t_end, log):
-    return Bunch(t=float(t), t_start=t_start, t_end=t_end,
-                 fraction=float(min(1.0, (t - t_start) / (t_end - t_start))), n_events=len(log))
+    return progress_state("simulate", int((t - t_start) // (2.0 * math.pi)),
+                          fraction=float(min(1.0, (t - t_start) / (t_end - t_start))), t=float(t),
+                          t_start=t_start, t_end=t_end, n_events=len(log))

@@ -67,6 +67,7 @@ from tps_solver.core import archive
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.newton import newton
+from tps_solver.core.progress import progress_state
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 from tps_solver.solvers.fda.dense import PiecewiseFlow
@@ -442,7 +443,9 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
     max_events_per_period : int, optional
         Event bound of one period map; default ``100 * n_nodes``.  Exceeding it stops with status 3.
     callback : callable, optional
-        ``callback(iteration, residual)`` after every Newton step (and once for the start).
+        ``callback(state)`` after every Newton step and once for the start (a
+        :class:`~tps_solver.core.progress.ProgressState`: stage ``"shooting"``, ``iteration``,
+        ``residual`` max|P(x) - x|, ``x``).
         Raising ``KeyboardInterrupt`` there (or pressing Ctrl-C) returns the state so far.
     **simulate_kw
         Further keywords of :func:`~tps_solver.simulate` (``stick_velocity``, ``time_tol``,
@@ -591,17 +594,17 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
     last = {"nit": 0, "x": x}
 
     def progress(state):
-        last.update(nit=state.nit, x=state.x)
+        last.update(nit=state.iteration, x=state.x)
         history.append(state.residual)
         steps.append((state.step, float("nan"), 0))
         if callback is not None:
-            callback(state.nit, state.residual)
+            callback(progress_state("shooting", state.iteration, residual=state.residual, x=state.x))
 
     try:
         F0, Px0, extra0 = pm.residual(x)
         history.append(pm.error(F0, (Px0, extra0)))
         if callback is not None:
-            callback(0, history[-1])
+            callback(progress_state("shooting", 0, residual=history[-1], x=x))
         # Newton--GMRES (one Krylov space of krylov_dim, no restart), backtracking on |F|_2 with
         # the quadratic model (the one engine, tps_solver.core.newton)
         sol = newton(pm, x, first=(F0, Px0, extra0), tol=tol, max_iter=max_iter, linear="gmres",

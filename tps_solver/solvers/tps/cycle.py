@@ -235,8 +235,8 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
     continuation : bool
         Follow the branch from the decoupled limit in the coupling.
     callback : callable, optional
-        ``callback(iteration, tc, residual)`` after each Newton step (each accepted
-        continuation point).  A ``KeyboardInterrupt`` returns ``status=5`` with the
+        ``callback(state)`` after each Newton step (each accepted continuation point), a
+        :class:`~tps_solver.core.progress.ProgressState` with ``iteration``, ``residual`` and ``tc``.  A ``KeyboardInterrupt`` returns ``status=5`` with the
         last accepted iterate.
 
     Returns

@@ -27,6 +27,7 @@ from scipy.sparse.linalg import LinearOperator
 
 from tps_solver.core.newton import newton as core_newton
 from tps_solver.core.orbit import converged_message
+from tps_solver.core.progress import progress_state
 from tps_solver.core.problem import Problem
 
 __all__ = ["TimePeriodicProblem", "newton", "continuation", "fixed_point", "interrupted_message", "CORRECTOR_ITER", "SCHEMES"]
@@ -107,7 +108,8 @@ def newton(problem, tc, tol, max_iter, callback=None):
     >>> message
     'converged: max|F| = ... <= tol = 1.0e-12'
     """
-    cb = None if callback is None else (lambda state: callback(state.nit, state.x, state.residual))
+    cb = None if callback is None else (
+        lambda s: callback(progress_state("newton", s.iteration, residual=s.residual, tc=s.x)))
     out = core_newton(problem, tc, tol=tol, max_iter=max_iter, min_step=1.0 / 64, callback=cb)
     message = out.message
     if out.status == 5:
@@ -123,7 +125,8 @@ def continuation(make_problem, tc, tol, max_iter, nu_start, callback=None, min_s
     with a secant predictor and Newton corrector.  A step that fails is
     halved; when the step falls below ``min_step`` the branch is declared to
     end (a fold: no solution on this branch beyond the last coupling reached).
-    ``callback(k, tc, residual)`` is called after the k-th accepted point.  A
+    ``callback(state)`` after the k-th accepted point (stage ``"coupling continuation"``,
+    ``iteration`` k, ``residual``, ``tc``, ``coupling``).  A
     ``KeyboardInterrupt`` returns status 5 with the last accepted point (at its
     coupling, which ``problem.coupling`` reports).
 
@@ -186,7 +189,8 @@ def continuation(make_problem, tc, tol, max_iter, nu_start, callback=None, min_s
                 problem = trial_problem
                 path.append((math.exp(s), nit, history[-1]))
                 if callback is not None:
-                    callback(len(path), tc, history[-1])
+                    callback(progress_state("coupling continuation", len(path), residual=history[-1], tc=tc,
+                                            coupling=math.exp(s)))
                 step = min(2.0 * step, 1.0)
             else:
                 step *= 0.5
@@ -213,8 +217,8 @@ def fixed_point(problem, tc, tol, max_iter, scheme, paper_sign, callback=None):
     to the iterate and selects tc^k from it by the contact rule.  For sigma = +1 this gives
     w^k = w(tc^{k-1}) exactly, i.e. the scheme is the Picard iteration lagged by one sweep.
     Convergence is always judged on the consistent residual F(tc^k) (a fresh solve), so an
-    iterate that drifted away from w(tc) is never reported as converged.  ``callback(k, tc,
-    residual)`` after each sweep; a ``KeyboardInterrupt`` returns status 5 with the last sweep.
+    iterate that drifted away from w(tc) is never reported as converged.  ``callback(state)``
+    after each sweep (stage = the scheme, ``iteration``, ``residual``, ``tc``); a ``KeyboardInterrupt`` returns status 5 with the last sweep.
 
     Returns ``(tc, w, status, message, nit, history)`` as :func:`newton`.
 
@@ -263,7 +267,7 @@ def fixed_point(problem, tc, tol, max_iter, scheme, paper_sign, callback=None):
             history.append(float(np.max(np.abs(F))))
             done = nit
             if callback is not None:
-                callback(nit, tc, history[-1])
+                callback(progress_state(scheme, nit, residual=history[-1], tc=tc))
             if not np.isfinite(history[-1]):
                 status, message = 2, "residual became non-finite"
                 break

@@ -411,8 +411,9 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         ``"kink"``: w(t + T/2, -x) = w(t, x) (the two far fields half a period
         apart); ``"even"``: w(t, -x) = w(t, x) (e.g. a flat layer or a stripe).
     callback : callable, optional
-        ``callback(iteration, tc, residual)`` after each Newton step (each
-        accepted point under continuation; each sweep of a fixed-point scheme).
+        ``callback(state)`` after each Newton step (each accepted point under
+        continuation; each sweep of a fixed-point scheme), a
+        :class:`~tps_solver.core.progress.ProgressState` with ``stage``, ``iteration``, ``residual`` and ``tc``.
         A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate.
 
     Returns
