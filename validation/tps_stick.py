@@ -8,7 +8,8 @@ Functions (each returns rows of measured numbers; ``main()`` prints markdown tab
   on the orbit's pattern; agreement with the FDA started on the TPS and with the orbit's contacts;
 * :func:`pattern_vs_orbit` -- the pattern of the time-stepped guess against the orbit's;
 * :func:`from_fda_guess` -- the stick TPS started directly on the guess run's pattern (no shooting);
-* :func:`continuation` -- Newton from the Gamma = 4.1 kink's pattern at nearby Gamma;
+* :func:`continuation` -- the Gamma = 4.1 kink followed in Gamma by :func:`tps_solver.continue_branch`,
+  checked against direct Newton solves and the FDA;
 * :func:`benchmark` / :func:`time_stepping` -- time to the TPS kink against FDA time stepping
   (exact and point integrators) from the same start to the same orbit at error 1e-8;
 * :func:`discretisation_table` -- error against ``n_basis`` and ``n_quad`` (speed vs error).
@@ -325,23 +326,35 @@ def pattern_vs_orbit(dx, Gamma=4.1, length=40.0, periods=(10, 40, 160), row=None
     return out
 
 
-def continuation(dx=2.0, Gamma=4.1, targets=(4.101, 4.11), row=None):
-    """Newton from the pattern of the Gamma kink (shooting orbit) at nearby Gamma: iterations, history."""
+def continuation(dx=2.0, Gamma=4.1, upto=4.11, row=None, step=0.02, max_step=0.05, n_checks=3):
+    """The Gamma kink (impact-and-stick TPS on the shooting orbit's pattern) followed in Gamma by the
+    library's continuation (:func:`tps_solver.continue_branch`), each of ``n_checks`` branch points
+    checked against a direct Newton solve at that Gamma from the start pattern (a second method) and
+    that solve against the FDA.  Returns (branch, rows)."""
     row = row or kink_from_shooting(dx, Gamma)
-    pattern = ts.pattern_from_orbit(row["orbit"])
+    start = row["solution"]
+    pattern = start.pattern
     T = pattern.period
+    tic = time.perf_counter()
+    br = tps.continue_branch(start, "Gamma", (Gamma, upto), multipliers=False, step=step, max_step=max_step)
+    seconds = time.perf_counter() - tic
+    C = start.problem.C
+    picks = np.unique(np.linspace(1, br.parameter_values.size - 1, n_checks).round().astype(int))
     out = []
-    for G2 in targets:
+    for k in picks:
+        G2, x = float(br.parameter_values[k]), br.states[k]
         sol = ts.solve_stick_lattice(row["lattice"], G2, 2, 0.0, pattern=pattern, tol=1e-11, max_iter=30,
                                      refresh=0)
-        r = dict(Gamma_start=f"{Gamma:g}", Gamma=f"{G2:g}", converged=sol.converged, nit=sol.nit,
-                 history=", ".join(f"{h:.1e}" for h in sol.residual_history), solve_seconds=sol.solve_time,
-                 time_shift=float(np.max(phase_distance(sol.pattern.t, pattern.t, T))), all_pass=sol.checks.all_pass)
+        r = dict(Gamma_start=f"{Gamma:g}", Gamma=f"{G2:.6g}", point=int(k), branch_points=int(br.parameter_values.size),
+                 branch_seconds=seconds, converged=sol.converged, nit=sol.nit,
+                 branch_vs_direct=float(np.max(phase_distance(sol.unknowns[:C], x[:C], T))),
+                 time_shift=float(np.max(phase_distance(sol.pattern.t, pattern.t, T))),
+                 all_pass=sol.checks.all_pass)
         if sol.converged:
             chk = ts.check_with_fda(sol, periods=2)
             r.update(fda_contact_error=chk.contact_error, fda_liftoff_error=chk.liftoff_error)
         out.append(r)
-    return out
+    return br, out
 
 
 KINK_COLS = ["Gamma", "dx", "shooting_residual", "converged", "nit", "residual", "all_pass", "stick_w_max",
@@ -393,11 +406,13 @@ def main(argv=None):
         print(_table(rows, ["dx", "periods", "contacts", "orbit_contacts", "same_kinds", "triggered",
                             "orbit_triggered", "same_triggers", "time_distance"]))
     if "continuation" in parts:
-        print("\n## Newton from the Gamma = 4.1 kink pattern at nearby Gamma (dx = 2)\n")
+        print("\n## The Gamma = 4.1 kink (dx = 2) followed in Gamma by tps.continue_branch\n")
         with one_blas_thread():
-            rows = continuation()
-        print(_table(rows, ["Gamma_start", "Gamma", "converged", "nit", "time_shift", "history",
-                            "fda_contact_error", "fda_liftoff_error", "all_pass", "solve_seconds"]))
+            br, rows = continuation()
+        print(br.message)
+        print(_table(rows, ["Gamma_start", "Gamma", "point", "branch_points", "branch_seconds", "converged", "nit",
+                            "branch_vs_direct", "time_shift", "fda_contact_error", "fda_liftoff_error",
+                            "all_pass"]))
     if "benchmark" in parts:
         print("\n## Benchmark: stick TPS (start -> shooting -> TPS) vs FDA time stepping to error 1e-8\n")
         rows = benchmark(tuple(args.dx or [2.0, 1.0]), max_periods=tuple(args.max_periods))
