@@ -64,6 +64,7 @@ from tps_solver.core.newton import newton
 from tps_solver.core.progress import progress_state
 from tps_solver.core.orbit import STATUS
 from tps_solver.core.problem import Inadmissible, Problem
+from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
 from scipy.sparse.linalg import LinearOperator
 
@@ -568,7 +569,7 @@ def _multipliers(problem, y):
         return np.array([], dtype=complex), np.nan
     J = np.asarray(J)
     if J.ndim == 2:
-        mu = np.linalg.eigvals(J)
+        mu = floquet_multipliers(J)
         pd = float(np.real(np.linalg.det(np.eye(J.shape[0]) + J)))
     else:
         mu = J

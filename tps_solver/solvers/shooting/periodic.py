@@ -71,7 +71,8 @@ from tps_solver.core.progress import progress_state
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 from tps_solver.solvers.fda.dense import PiecewiseFlow
-from tps_solver.solvers.shooting.floquet import fit_growth
+from tps_solver.solvers.shooting.floquet import fit_growth, ritz_multipliers
+from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 
 __all__ = ["find_periodic_orbit", "ShootingOrbit"]
 
@@ -739,16 +740,7 @@ def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, d
         mu = lin.multipliers(None if 2 * m <= dense_max else min(n_mult, 2 * m))
         kind = "all (exact)" if 2 * m <= dense_max else "leading (exact)"
     elif 2 * m <= dense_max:
-        J = np.empty((2 * m, 2 * m))
-        for k in range(2 * m):
-            hk = h
-            if not soft and k >= m:
-                hk = min(h, 0.5 * x[k]) if x[k] > 0 else h
-            xp, xm = x.copy(), x.copy()
-            xp[k] += hk
-            xm[k] -= hk
-            J[:, k] = (pm(xp)[0] - pm(xm)[0]) / (2.0 * hk)
-        mu = np.linalg.eigvals(J).astype(complex)
+        mu = floquet_multipliers(pm.matrix(x, jacobian_step))
         kind = "all (dense)"
     else:
         def jv(v):
@@ -765,28 +757,8 @@ def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, d
         # is clustered near 0 (sticking) and the products carry finite-difference noise.
         k = min(n_mult, 2 * m)
         dim = min(2 * m, max(2 * k + 1, 20))
-        V = np.zeros((2 * m, dim + 1))
-        H = np.zeros((dim + 1, dim))
-        v0 = rng.standard_normal(2 * m)
-        V[:, 0] = v0 / np.linalg.norm(v0)
-        used = dim
-        for j in range(dim):
-            wv = jv(V[:, j])
-            for _ in range(2):
-                c = V[:, :j + 1].T @ wv
-                H[:j + 1, j] += c
-                wv = wv - V[:, :j + 1] @ c
-            H[j + 1, j] = float(np.linalg.norm(wv))
-            if H[j + 1, j] <= 1e-13 * max(1.0, float(np.max(np.abs(H[:j + 1, :j + 1])))):
-                used = j + 1
-                break
-            V[:, j + 1] = wv / H[j + 1, j]
-        theta, Y = np.linalg.eig(H[:used, :used])
-        order = np.argsort(-np.abs(theta), kind="stable")[:k]
-        mu = theta[order].astype(complex)
-        # Ritz residual estimates |h_{j+1,j} y_j| of the reported pairs
-        out.multiplier_residuals = np.abs(H[used, used - 1] * Y[used - 1, order])
-        out.arnoldi_dim = used
+        mu, out.multiplier_residuals, out.arnoldi_dim = ritz_multipliers(jv, 2 * m, k, dim,
+                                                                          rng.standard_normal(2 * m))
         kind = "leading (Arnoldi)"
     mu = mu[np.argsort(-np.abs(mu), kind="stable")]
     out.multipliers, out.multipliers_kind = mu, kind
