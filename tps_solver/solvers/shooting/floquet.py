@@ -57,7 +57,7 @@ def multipliers(monodromy, k=None):
 
 
 def ritz_multipliers(matvec, n, k, dim, v0):
-    """The ``k`` leading multipliers as Ritz values of an Arnoldi factorisation of fixed dimension.
+    r"""The ``k`` leading multipliers as Ritz values of an Arnoldi factorisation of fixed dimension.
 
     One product per step and no implicit restarts, so the cost (``dim`` products) is known in
     advance; ARPACK's restarts to a tolerance have no useful bound when the spectrum is clustered
