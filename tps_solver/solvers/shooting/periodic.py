@@ -167,6 +167,8 @@ class ShootingOrbit(PeriodicOrbit):
     >>> z = orb.height(orb.t_start + orb.period * np.arange(4) / 4)     # shape (4, n_nodes)
     >>> z.shape, bool(np.max(np.abs(orb.height(orb.t_start + orb.period) - orb.zeta0)) < 1e-10)
     ((4, 8), True)
+    >>> bool(abs(orb.t0 - orb.flat.t0) == 0.0), type(orb.flat).__name__
+    (True, 'FlatLayer')
     """
 
     @property
@@ -199,6 +201,23 @@ class ShootingOrbit(PeriodicOrbit):
     def geometry(self):
         """Geometry of the lattice."""
         return self.lattice.geometry
+
+    @property
+    def flat(self):
+        """The far-field flat layer: :class:`~tps_solver.FlatLayer` with point impacts (e = 0: the
+        impact-and-stick orbit), :class:`~tps_solver.SoftFlatOrbit` with the soft contact."""
+        from tps_solver.model.flat import FlatLayer
+        from tps_solver.model.soft_flat import SoftFlatOrbit
+
+        if self.method == "soft":
+            return SoftFlatOrbit(self.Gamma, self.M, self.e, self.cutoff)
+        return FlatLayer(self.Gamma, self.M, e=self.e)
+
+    @property
+    def t0(self):
+        """Launch phase of the far-field flat layer (the exit phase ``t_exit`` for the soft contact)."""
+        flat = self.flat
+        return float(flat.t_exit if self.method == "soft" else flat.t0)
 
     def _sample(self, t):
         t = np.atleast_1d(np.asarray(t, dtype=float))
