@@ -48,9 +48,20 @@ Problems
   :func:`~tps_solver.find_periodic_orbit` (``multipliers=True``);
 * a :class:`~tps_solver.solvers.shooting.periodic.ShootingOrbit` (any contact pattern; parameter
   ``"Gamma"``, ``"e"`` or, for the soft contact, ``"cutoff"``): the shooting
-  equation :math:`P(x; p) = x` of the FDA period map at the orbit's section, with
-  a dense central-difference Jacobian (small lattices) whose eigenvalues are the
-  multipliers.
+  equation :math:`P(x; p) = x` of the FDA period map
+  (:class:`~tps_solver.solvers.shooting.period_map.PeriodMap`) at the orbit's section, with a
+  dense Jacobian (exact for the soft contact, central differences for point impacts; small
+  lattices) whose eigenvalues are the multipliers;
+* a :class:`~tps_solver.solvers.tps.stick.StickSolution` (the impact-and-stick TPS; parameter
+  ``"Gamma"`` or ``"e"``): its residual in the unknowns ``[t, tau, J, coef]`` of its contact
+  pattern, the pattern held fixed (the branch ends where the problem refuses a point, e.g.
+  a broken contact order); no multipliers (hand a point to the FDA for them);
+* a pair ``(problem, x0)``: any problem of the protocol (:mod:`tps_solver.core.problem`) in
+  any of its ``parameters``, from its solution ``x0``; multipliers from its ``monodromy``
+  where it has one.
+
+Every corrector is the one Newton (:func:`tps_solver.core.newton.newton`: plain steps, a
+dense LU of the bordered matrix).
 """
 import math
 import time
@@ -586,11 +597,12 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
 
     Parameters
     ----------
-    start : FlatLayer, LatticeCycle or ShootingOrbit
-        A point on the branch.
+    start : FlatLayer, LatticeCycle, ShootingOrbit, StickSolution or (Problem, ndarray)
+        A point on the branch (module docstring).
     parameter : str
-        ``"Gamma"`` or ``"e"`` (flat layer); ``"spacing"``, ``"Gamma"`` or ``"e"`` (lattice cycle);
-        ``"Gamma"``, ``"e"`` or ``"cutoff"`` (shooting orbit).
+        ``"Gamma"`` or ``"e"`` (flat layer, impact-and-stick solution); ``"spacing"``,
+        ``"Gamma"`` or ``"e"`` (lattice cycle); ``"Gamma"``, ``"e"`` or ``"cutoff"`` (shooting
+        orbit); a name of ``problem.parameters`` for a ``(problem, x0)`` pair.
     bounds : (float, float)
         The parameter interval; the branch stops where it leaves it.  It must contain
         the start's parameter value.
