@@ -315,6 +315,12 @@ class _FlatProblem:
         return fl.impact_map_jacobian()
 
 
+def _dF_dp(problem, x, p):
+    """dF/dp by a central difference of relative step 1e-6."""
+    hp = 1e-6 * max(1.0, abs(p))
+    return (problem.residual(x, p + hp) - problem.residual(x, p - hp)) / (2.0 * hp)
+
+
 class _CycleProblem:
     """Exact single-contact lattice cycles (:mod:`tps_solver.solvers.tps.cycle`) in their contact times."""
 
@@ -366,10 +372,7 @@ class _CycleProblem:
         prob, _, _ = self._setup(p)
         F, H, _ = prob.residual(x)
         op, _ = prob.jacobian_operator(x, H, None)
-        Jx = op.matmat(np.eye(x.size))
-        dp = 1e-6 * max(1.0, abs(p))
-        Jp = (self.residual(x, p + dp) - self.residual(x, p - dp)) / (2.0 * dp)
-        return Jx, Jp
+        return op.matmat(np.eye(x.size)), _dF_dp(self, x, p)
 
     def monodromy(self, x, p):
         if not self.with_multipliers:
@@ -461,9 +464,7 @@ class _ProtocolProblem:
         else:
             J = prob.jacobian(x, F, data)
             Jx = J.matmat(np.eye(x.size)) if isinstance(J, LinearOperator) else np.asarray(J, float)
-        hp = 1e-6 * max(1.0, abs(p))
-        Jp = (self.residual(x, p + hp) - self.residual(x, p - hp)) / (2.0 * hp)
-        return Jx, Jp
+        return Jx, _dF_dp(self, x, p)
 
     def monodromy(self, x, p):
         if not self.with_multipliers:
