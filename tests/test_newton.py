@@ -144,3 +144,16 @@ def test_parameters_by_name():
     with pytest.raises(ValueError, match="parameter"):
         prob.at(q=1.0)
     assert math.isclose(newton(prob, np.array([1.0]), tol=1e-15, max_iter=30).x[0] ** 2, 2.0, rel_tol=4 * EPS)
+
+
+def test_every_former_newton_loop_keeps_its_iteration_count():
+    """The five loops that became the one engine take the steps they took before (commit 33c4ade)."""
+    from validation.house import BEFORE, engine_counts
+
+    now = engine_counts()
+    for key in ("kink_nit", "cycle_nit", "stick_flat_nit_4.1", "stick_flat_nit_4.6", "shooting_nit"):
+        assert now[key] == BEFORE[key], key
+    # scipy's GMRES forms the true residual once per cycle: one period map more per Newton step
+    assert now["shooting_maps"] == BEFORE["shooting_maps"] + now["shooting_nit"]
+    assert now["kink_residual"] <= 1e-10 and now["cycle_residual"] <= 1e-12
+    assert now["stick_flat_error_4.1"] <= 1e-12 and now["stick_flat_error_4.6"] <= 1e-11

@@ -54,6 +54,7 @@ SECTION_ORDER = (
     ("soft_kinks", "Soft-contact kinks over lattice spacings"),
     ("continuation", "Continuation: folds and period doublings"),
     ("existence_map", "Where kinks and oscillons exist: the existence-stability map"),
+    ("house", "One problem, one Newton"),
 )
 
 
