@@ -162,3 +162,62 @@ def test_chain_statistics_bad_input(kw, name):
     args.update(kw)
     with pytest.raises(ValueError, match=name):
         chain_statistics(**args)
+
+
+# ------------------------------------------------------------------ front width (the one of analyses.localized)
+class _StickLikeKink:
+    """A manufactured tanh front between far fields with a high and a low flight, half a period apart.
+
+    Like a StickSolution: ``nodes``, ``period``, ``height(t)``, no ``lattice`` and no ``t_start``.
+    theta = (1 + tanh(x / w)) / 2 at every instant, so every instant has the 10-90 width 2 atanh(0.8) w.
+    """
+
+    period = 4 * np.pi
+
+    def __init__(self, w, n=20001):
+        self.w, self.nodes = w, np.linspace(-15.0 * w, 15.0 * w, n)
+
+    @staticmethod
+    def far_fields(t):
+        t = np.atleast_1d(np.asarray(t, float))
+        zl = 2.0 + np.cos(t / 2) + 0.6 * np.cos(t)          # high flight near t = 0, low flight near t = 2 pi
+        zr = 2.0 - np.cos(t / 2) + 0.6 * np.cos(t)          # zl half a period later
+        return zl, zr
+
+    def height(self, t):
+        zl, zr = self.far_fields(t)
+        return zl[:, None] + (zr - zl)[:, None] * 0.5 * (1.0 + np.tanh(self.nodes[None, :] / self.w))
+
+
+@pytest.mark.parametrize("w", [0.5, 2.0])
+def test_front_width_at_the_lower_far_field_top_of_a_manufactured_front(w):
+    want = 2.0 * math.atanh(0.8) * w
+    orb = _StickLikeKink(w)
+    (width,), (t,) = tps.front_width(orb, n_samples=256, instant="lower_far_field_top", return_times=True)
+    assert abs(width - want) <= 1e-6 * want
+    ts = orb.period * np.arange(256) / 256                  # the instant: min(zeta_L, zeta_R) largest
+    zl, zr = orb.far_fields(ts)
+    assert t == ts[int(np.argmax(np.minimum(zl, zr)))]
+    assert min(orb.far_fields(t)[0][0], orb.far_fields(t)[1][0]) == pytest.approx(np.max(np.minimum(zl, zr)))
+    wl, wr = tps.front_width(orb, n_samples=256)            # the default instants give the same analytic width
+    assert abs(wl - want) <= 1e-6 * want and abs(wr - want) <= 1e-6 * want
+
+
+def test_front_width_lower_top_refuses_crossing_far_fields():
+    orb = _StickLikeKink(1.0, n=401)
+    orb.far_fields = lambda t: (1.0 + np.sin(np.atleast_1d(t) / 2), 1.0 - np.sin(np.atleast_1d(t) / 2))
+    with pytest.raises(ValueError, match="ill-conditioned"):
+        tps.front_width(orb, instant="lower_far_field_top")
+    assert tps.front_width(orb)[0] == pytest.approx(2.0 * math.atanh(0.8), rel=1e-3)
+
+
+def test_front_width_takes_a_stick_solution_and_checks_its_options():
+    from tps_solver.solvers.tps.stick import solve_stick_flat
+
+    flat = solve_stick_flat(4.1, n_nodes=4, length=6.0, perturbation=1e-3)
+    with pytest.raises(ValueError, match="no front"):            # read as a lattice orbit, but it is flat
+        tps.front_width(flat, instant="lower_far_field_top")
+    with pytest.raises(ValueError, match="instant"):
+        tps.front_width(_StickLikeKink(1.0, n=11), instant="max_contrast")
+    with pytest.raises(ValueError, match="n_samples"):
+        tps.front_width(_StickLikeKink(1.0, n=11), n_samples=4)
