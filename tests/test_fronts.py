@@ -221,3 +221,36 @@ def test_front_width_takes_a_stick_solution_and_checks_its_options():
         tps.front_width(_StickLikeKink(1.0, n=11), instant="max_contrast")
     with pytest.raises(ValueError, match="n_samples"):
         tps.front_width(_StickLikeKink(1.0, n=11), n_samples=4)
+
+
+# ------------------------------------------------------------------ the study alphabet as a view of ContactPattern
+def test_event_sequences_of_a_manufactured_pattern():
+    """Known contacts -> known tokens: landings T/S/s, lift-offs L/L*, rotated to the first lift-off."""
+    T = 4 * math.pi
+    p = tps.ContactPattern.from_contacts(
+        node=[0, 0, 1, 1, 2], t=[3.0, 6.0, 0.5, 7.0, 9.0], kind=["touch", "stick", "stick", "stick", "touch"],
+        liftoff=[math.nan, 1.0 + T, 3.5, 11.0, math.nan], trigger=[-1, -1, -1, 0, -1], n_nodes=3, period=T)
+    # node 0: lift-off at 1 (smooth, from the rest across the section), touch 3, stick 6; node 1: stick 0.5
+    # off at 3.5, stick 7 off at 11 (triggered by node 0); node 2: a touch only (no lift-off: no rotation)
+    assert p.event_sequences() == ["L T S", "L S L* S", "T"]
+    # times at rest of node 1: 3.0 and 4.0
+    assert p.event_sequences(brief=3.5) == ["L T S", "L S L* s", "T"]
+    with pytest.raises(ValueError, match="brief"):
+        p.event_sequences(brief=-1.0)
+
+
+def test_inelastic_kinks_summary_is_the_pattern_view():
+    """validation.inelastic_kinks.contact_pattern on hand-built events: sequences from ContactPattern."""
+    from validation.inelastic_kinks import contact_pattern, orbit_pattern
+
+    T = 4 * math.pi
+    ev = np.rec.fromrecords([(0.5, 2, "stick"), (1.0, 0, "liftoff"), (3.0, 1, "impact"), (3.000001, 2, "liftoff"),
+                             (5.0, 0, "impact"), (6.0, 0, "stick"), (6.0, 1, "liftoff"), (7.0, 1, "stick"),
+                             (9.0, 2, "impact")], names="t,node,kind")
+    pat = orbit_pattern(ev, 3, T)
+    assert pat.sequences() == ["TS", "TS", "ST"]
+    assert pat.ended_by.tolist() == ["", "smooth", "", "triggered", "smooth", ""] and pat.trigger.tolist()[3] == 0
+    assert pat.rest_times()[[1, 3, 4]] == pytest.approx([1.0 + T - 6.0, 6.0 + T - 7.0, 2.500001], abs=1e-12)
+    p = contact_pattern(ev, 3, T, sticking_intervals=[], brief=2.6)
+    assert p["sequences"] == ["L T S", "L* S T", "L T s"] == pat.event_sequences(brief=2.6)
+    assert p["stuck_times"][2] == pytest.approx([2.500001], abs=1e-12) and p["brief_sticks"] == 1
