@@ -21,6 +21,8 @@ Public API (see ``README.md`` for a tour):
 * :func:`find_periodic_orbit` -- periodic orbits of any contact pattern by shooting;
 * :func:`lattice_kink`, :func:`lattice_oscillon`, :func:`front_width` -- kinks and oscillons of
   any contact pattern on lattices (settle, then shoot);
+* :func:`front_fate`, :func:`invasion_speed` -- what a time-stepped front does (settles, drifts,
+  collapses, invades, ...) and how fast it invades, from its per-period records;
 * :func:`continue_branch`, :class:`Branch` -- continuation with folds and period doublings;
 * :func:`flat_basins` -- basins of attraction of the bouncing ball (one node);
 * :func:`solve_stick_flat`, :func:`solve_stick_lattice` -- the TPS for impact-and-stick contacts
@@ -66,6 +68,8 @@ _LAZY = {
     "lattice_kink": "analyses.localized",
     "lattice_oscillon": "analyses.localized",
     "front_width": "analyses.localized",
+    "front_fate": "analyses.fronts",
+    "invasion_speed": "analyses.fronts",
     "solve_stick_flat": "solvers.tps.stick",
     "solve_stick_lattice": "solvers.tps.stick",
 }

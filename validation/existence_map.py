@@ -288,7 +288,7 @@ def _phase_labels(w, z, ph):
 
 def verdict(defects, widths, fronts, extent, settle_tol=1e-6, front_max=4.0, invade_fraction=0.8, alive=None,
             drift_tol=None):
-    """Classify a front run from its per-period records (module docstring).
+    """Classify a front run from its per-period records (module docstring): :func:`tps_solver.front_fate`.
 
     Parameters
     ----------
@@ -328,31 +328,8 @@ def verdict(defects, widths, fronts, extent, settle_tol=1e-6, front_max=4.0, inv
     >>> label, round(rate, 9)
     ('drifts', 1.0)
     """
-    defects, widths, fronts = (np.asarray(a, float) for a in (defects, widths, fronts))
-    alive = np.ones(widths.size, bool) if alive is None else np.asarray(alive, bool)
-    drift_tol = extent / 20.0 if drift_tol is None else drift_tol
-    k = np.arange(widths.size)
-    full = invade_fraction * extent
-    if widths.max() >= full or widths[-1] - widths[0] > front_max:
-        if widths[0] >= full:                  # filled within the first period: faster than the domain resolves
-            return "invades", None
-        below = widths < full
-        last = widths.size if below.all() else int(np.argmax(~below)) + 1
-        last = max(last, 2)
-        return "invades", float(np.polyfit(k[:last], widths[:last], 1)[0])
-    live = np.flatnonzero(alive)
-    rate = float(np.polyfit(k[live], fronts[live], 1)[0]) if live.size >= 2 else None
-    if not alive[-1]:
-        return "collapses", rate
-    if widths.max() <= front_max and np.ptp(fronts) > drift_tol:
-        return "drifts", rate
-    if defects[-1] < settle_tol and widths.max() <= front_max:
-        return "settles", None
-    tail = slice(-3, None) if widths.size >= 3 else slice(None)
-    if (widths.size >= 3 and np.ptp(widths[tail]) == 0.0 and np.ptp(fronts[tail]) <= drift_tol
-            and widths.max() <= max(front_max, widths[0] + front_max)):
-        return "stationary", None
-    return "undecided", None
+    return tps.front_fate(defects, widths, extent, fronts=fronts, alive=alive, settle_tol=settle_tol,
+                          front_max=front_max, invade_fraction=invade_fraction, drift_tol=drift_tol)
 
 
 class BudgetExceeded(Exception):

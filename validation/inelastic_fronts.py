@@ -26,69 +26,14 @@ import time
 import numpy as np
 
 import tps_solver as tps
+from tps_solver.analyses.fronts import chain_statistics as chain_stats
 
 TOL = 1e-9
 
 
 def chain_statistics(t, node, kind, t_start, period, n_nodes, tol=TOL):
-    """Classify the contacts of one period of a lattice orbit.
-
-    Parameters
-    ----------
-    t, node, kind : ndarray, shape (n_events,)
-        Event times, nodes and kinds ("impact", "stick", "liftoff") of one period.
-    t_start, period : float
-    n_nodes : int
-    tol : float
-        Contacts shorter than this are touches; a lift-off within this of a neighbour's
-        landing is triggered.
-
-    Returns
-    -------
-    dict
-        ``touch``, ``stick_smooth``, ``stick_triggered`` (counts per period),
-        ``chain_durations`` (ndarray: durations of the triggered sticks) and
-        ``chain_nodes`` (their nodes).
-    """
-    t = np.asarray(t, dtype=float)
-    node = np.asarray(node)
-    kind = np.asarray(kind).astype(str)
-    s = (t - t_start) % period
-    landings = {j: s[(node == j) & (kind != "liftoff")] for j in range(n_nodes)}
-    out = dict(touch=0, stick_smooth=0, stick_triggered=0, chain_durations=[], chain_nodes=[])
-    for j in range(n_nodes):
-        sel = node == j
-        ev = sorted(zip(s[sel], kind[sel]))
-        if not ev:
-            continue
-        # a contact: a landing ("impact" = touch, "stick") and, for a stick, the next lift-off (cyclically)
-        for k, (tk, kk) in enumerate(ev):
-            if kk == "impact":
-                out["touch"] += 1
-                continue
-            if kk != "stick":
-                continue
-            lifts = [tl - tk for tl, kl in ev if kl == "liftoff"]
-            if not lifts:
-                continue
-            signed = [((d + 0.5 * period) % period) - 0.5 * period for d in lifts]
-            if min(abs(d) for d in signed) < tol:       # lands and leaves at once (same event set)
-                out["touch"] += 1
-                continue
-            dur = min(d % period for d in lifts)
-            t_lift = (tk + dur) % period
-            neigh = [i for i in (j - 1, j + 1) if 0 <= i < n_nodes]
-            trig = any(np.any(np.abs(((landings[i] - t_lift + 0.5 * period) % period) - 0.5 * period) < tol)
-                       for i in neigh)
-            if trig:
-                out["stick_triggered"] += 1
-                out["chain_durations"].append(dur)
-                out["chain_nodes"].append(j)
-            else:
-                out["stick_smooth"] += 1
-    out["chain_durations"] = np.asarray(out["chain_durations"])
-    out["chain_nodes"] = np.asarray(out["chain_nodes"], dtype=int)
-    return out
+    """Classify the contacts of one period of a lattice orbit (:func:`tps_solver.analyses.fronts.chain_statistics`)."""
+    return chain_stats(t, node, kind, t_start, period, n_nodes, tol)
 
 
 def front_chains(dxs=(2.0, 1.0, 0.5), Gamma=4.1, length=40.0, periods=10, max_iter=80):

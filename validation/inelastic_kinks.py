@@ -43,6 +43,7 @@ import numpy as np
 
 import tps_solver as tps
 from tps_solver.analyses.localized import core_radius
+from tps_solver.solvers.fda.patterns import pattern_from_events
 from validation.report import one_blas_thread, phase_distance
 from validation.shooting import e0_flat_state, e0_kinks, front_width, table
 
@@ -55,8 +56,38 @@ DXS = (2.0, 1.0, 0.5)
 BRIEF = 1e-3
 
 
+class _Chain:
+    """The neighbours of a chain of ``n_nodes`` (j - 1 and j + 1) as ``pattern_from_events`` reads a lattice."""
+
+    def __init__(self, n_nodes):
+        self.n_nodes = int(n_nodes)
+        self.operator = np.eye(self.n_nodes, k=1) + np.eye(self.n_nodes, k=-1)
+
+
+def orbit_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9):
+    """The :class:`tps_solver.ContactPattern` of one period of events on a chain of ``n_nodes``.
+
+    :func:`tps_solver.solvers.fda.patterns.pattern_from_events` (e = 0: an ``"impact"`` is a
+    touch-and-go), with the window starting at the first event; a node whose first lift-off
+    comes before its first landing to rest was stuck at the section (also where ``stuck0`` does
+    not say so).
+    """
+    t = np.asarray(events.t, dtype=float)
+    node = np.asarray(events.node, dtype=int)
+    kind = np.asarray(events.kind).astype(str)
+    stuck = np.zeros(n_nodes, bool) if stuck0 is None else np.array(stuck0, dtype=bool)
+    for j in range(n_nodes):
+        tj, kj = t[node == j], kind[node == j]
+        lifts, rests = tj[kj == "liftoff"], tj[kj == "stick"]
+        if lifts.size and (not rests.size or lifts.min() < rests.min()):
+            stuck[j] = True
+    t_start = float(t.min()) if t.size else 0.0
+    return pattern_from_events(events, _Chain(n_nodes), period, t_start, stuck0=stuck, e=0.0,
+                               trigger_tol=trigger_tol)
+
+
 def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9, sticking_intervals=None, brief=None):
-    """Per-node contact sequence of one period of a lattice orbit.
+    """Per-node contact sequence of one period of a lattice orbit: a summary of its :func:`orbit_pattern`.
 
     Parameters
     ----------
@@ -68,27 +99,28 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9, stic
     period : float
         The period T (times are compared modulo T).
     stuck0 : array_like of bool, shape (n_nodes,), optional
-        Nodes stuck at the section (only reported).
+        Nodes stuck at the section (reported as ``stuck_at_section``).
     trigger_tol : float
         A lift-off of node j within ``trigger_tol`` (mod T) of a landing (impact or stick) of a
         neighbour is counted as triggered.
     sticking_intervals : list of (int, float, float), optional
-        ``(node, t_stick, t_liftoff)`` of the period (``ShootingOrbit.sticking_intervals``; an
-        interval cut at the section is joined with its other piece).  With ``brief``, a stick
-        whose stuck time is below ``brief`` is written ``s``.
+        ``ShootingOrbit.sticking_intervals``: if given, the stuck times are reported (they are
+        the pattern's times at rest, lift-off minus landing, an interval across the section
+        joined).
     brief : float, optional
-        Stuck-time threshold (time units 1/omega) of a brief stick.
+        Stuck-time threshold (time units 1/omega) of a brief stick, written ``s``.
 
     Returns
     -------
     dict
-        ``sequences`` (list of str, one per node: the kinds in time order, rotated to start at the
-        first lift-off, ``T`` touch-and-go, ``S`` stick, ``L`` lift-off, ``L*`` triggered lift-off),
-        ``histogram`` (dict sequence -> number of nodes), ``contacts`` (dict contacts per node ->
-        number of nodes), ``touch_and_go``, ``sticks``, ``liftoffs``, ``triggered`` (int totals),
-        ``triggered_nodes`` (list of int), ``stuck_at_section`` (int); with
-        ``sticking_intervals``: ``stuck_times`` (per node, list of float, in time order of the
-        sticks), ``brief_sticks`` (int, stuck time < ``brief``), ``min_stuck_time`` (float).
+        ``sequences`` (list of str, one per node: :meth:`tps_solver.ContactPattern.event_sequences`,
+        ``T`` touch-and-go, ``S`` stick, ``L`` lift-off, ``L*`` triggered lift-off, rotated to
+        start at the first lift-off), ``histogram`` (dict sequence -> number of nodes),
+        ``contacts`` (dict contacts per node -> number of nodes), ``touch_and_go``, ``sticks``,
+        ``liftoffs``, ``triggered`` (int totals), ``triggered_nodes`` (list of int),
+        ``stuck_at_section`` (int); with ``sticking_intervals``:
+        ``stuck_times`` (per node, list of float, in time order of the sticks), ``brief_sticks``
+        (int, stuck time < ``brief``), ``min_stuck_time`` (float).
 
     Examples
     --------
@@ -98,63 +130,27 @@ def contact_pattern(events, n_nodes, period, stuck0=None, trigger_tol=1e-9, stic
     >>> p = contact_pattern(ev, 2, 12.0)
     >>> p["sequences"], p["triggered"], p["contacts"]
     (['L* T S', 'L S'], 1, {1: 1, 2: 1})
-    >>> p = contact_pattern(ev, 2, 12.0, sticking_intervals=[(1, 2.0, 5.0), (0, 4.0, 4.5)], brief=1.0)
+    >>> p = contact_pattern(ev, 2, 12.0, sticking_intervals=[(1, 2.0, 5.0), (0, 4.0, 14.0)], brief=5.0)
     >>> p["sequences"], p["stuck_times"], p["brief_sticks"]
-    (['L* T s', 'L S'], [[0.5], [3.0]], 1)
+    (['L* T S', 'L s'], [[10.0], [3.0]], 1)
     """
-    T = float(period)
-    t = np.asarray(events.t, dtype=float)
-    node = np.asarray(events.node, dtype=int)
+    pat = orbit_pattern(events, n_nodes, period, stuck0, trigger_tol)
     kind = np.asarray(events.kind).astype(str)
-    landing = (kind == "impact") | (kind == "stick")
-    stuck_time = {}                       # (node, t_stick) -> stuck time
-    if sticking_intervals is not None:
-        ivs = sorted(sticking_intervals, key=lambda r: r[1])
-        for j, b, e in ivs:
-            stuck_time[(int(j), float(b))] = float(e - b)
-        for j in (np.flatnonzero(stuck0) if stuck0 is not None else []):
-            mine = [(b, e) for jj, b, e in ivs if jj == j]
-            if len(mine) >= 2:            # an interval across the section: join its two pieces
-                (b0, e0), (bl, el) = mine[0], mine[-1]
-                stuck_time[(int(j), float(bl))] = float((e0 - b0) + (el - bl))
-    seqs, n_trig, trig_nodes = [], 0, []
-    for j in range(n_nodes):
-        idx = np.flatnonzero(node == j)
-        idx = idx[np.argsort(t[idx], kind="stable")]
-        toks = []
-        for i in idx:
-            if kind[i] == "impact":
-                toks.append("T")
-            elif kind[i] == "stick":
-                d = stuck_time.get((j, float(t[i])))
-                toks.append("s" if (brief is not None and d is not None and d < brief) else "S")
-            else:
-                nb = landing & ((node == j - 1) | (node == j + 1))
-                trig = bool(nb.any() and np.min(phase_distance(t[nb], t[i], T)) < trigger_tol)
-                toks.append("L*" if trig else "L")
-                if trig:
-                    n_trig += 1
-                    trig_nodes.append(j)
-        lifts = [k for k, s in enumerate(toks) if s.startswith("L")]
-        if lifts:
-            toks = toks[lifts[0]:] + toks[:lifts[0]]
-        seqs.append(" ".join(toks))
-    ncont = [len([k for k in s.split() if k in ("T", "S", "s")]) for s in seqs]
+    seqs = pat.event_sequences(brief=brief)
+    rest = np.isin(pat.kind, ("stick", "chatter"))
+    trig = rest & (pat.ended_by == "triggered")
     extra = {}
     if sticking_intervals is not None:
-        per = [[] for _ in range(n_nodes)]
-        for i in np.flatnonzero(kind == "stick"):
-            d = stuck_time.get((int(node[i]), float(t[i])))
-            if d is not None:
-                per[int(node[i])].append(d)
+        rt = pat.rest_times()
+        per = [[float(d) for d in rt[(pat.node == j) & rest]] for j in range(n_nodes)]
         allt = [d for p in per for d in p]
         extra = dict(stuck_times=per, brief_sticks=int(sum(d < brief for d in allt)) if brief else 0,
                      min_stuck_time=float(min(allt)) if allt else float("nan"))
     return dict(**extra, sequences=seqs, histogram=dict(Counter(seqs)),
-                contacts={int(k): int(v) for k, v in sorted(Counter(ncont).items())},
+                contacts={int(k): int(v) for k, v in sorted(Counter(pat.counts.tolist()).items())},
                 touch_and_go=int(np.sum(kind == "impact")), sticks=int(np.sum(kind == "stick")),
-                liftoffs=int(np.sum(kind == "liftoff")), triggered=n_trig,
-                triggered_nodes=sorted(set(trig_nodes)),
+                liftoffs=int(np.sum(kind == "liftoff")), triggered=int(np.count_nonzero(trig)),
+                triggered_nodes=sorted(set(pat.node[trig].tolist())),
                 stuck_at_section=int(np.count_nonzero(stuck0)) if stuck0 is not None else 0)
 
 

@@ -66,6 +66,12 @@ GAMMA, E, M, CUTOFF = 2.5, 0.45, 2, 0.3
 SPACINGS = (20.0, 12.0, 10.0, 5.0, 1.0, 0.2, 0.1)
 #: Spacings of ``main()`` without arguments (the 12-node lattices around the fold; a few minutes).
 DEFAULT_SPACINGS = (20.0, 12.0, 11.5, 11.0, 10.5, 10.0)
+#: The verdict rules of :func:`fate` as options of :func:`tps_solver.front_fate` (disordered nodes against
+#: the node count): "invades" when they reach 80 % of the lattice (no growth bound), "settles" when the last
+#: defect is < 1e-6 with no disordered node, "decays" with none over the last five periods and a falling
+#: defect, "localized disorder" when some are left; no "stationary".
+FATE_RULES = dict(settle_tol=1e-6, front_max=math.inf, invade_fraction=0.8, settle_width=0.0, decay_periods=5,
+                  stationary_periods=None, localized=True)
 #: Nodes for the coarse spacings (>= 5) and the length of the fine ones.
 COARSE_NODES, FINE_LENGTH = 12, 48.0
 
@@ -173,6 +179,8 @@ def period_record(k, w, z, run, lattice, ref, fo, t):
 def invasion_speed(counts, n_nodes, fraction=0.8):
     """Least-squares slope of the disordered-node count per period, up to the first period at ``fraction``.
 
+    :func:`tps_solver.invasion_speed` with the lattice's node count as the extent.
+
     The periods after the first one in which the count reaches ``fraction * n_nodes`` (the
     lattice is filled) are left out.
 
@@ -186,13 +194,7 @@ def invasion_speed(counts, n_nodes, fraction=0.8):
     >>> round(invasion_speed([4, 14, 24, 34, 44, 49, 49], 49), 9)
     10.0
     """
-    c = np.asarray(counts, float)
-    full = np.flatnonzero(c >= fraction * n_nodes)
-    last = int(full[0]) + 1 if full.size else c.size
-    if last < 2:
-        return None
-    k = np.arange(last)
-    return float(np.polyfit(k, c[:last], 1)[0])
+    return tps.invasion_speed(counts, n_nodes, fraction) if len(counts) else None
 
 
 def fate(dx, periods=15, n_nodes=None, cutoff=CUTOFF, budget=None, settle_tol=1e-12, **simulate_kw):
@@ -242,18 +244,10 @@ def fate(dx, periods=15, n_nodes=None, cutoff=CUTOFF, budget=None, settle_tol=1e
     good = [r for r in recs if "defect" in r]
     counts = [r["disordered"] for r in good]
     n = lat.n_nodes
-    d = np.array([r["defect"] for r in good])
-    if counts and max(counts) >= 0.8 * n:
-        verdict = "invades"
-    elif good and d[-1] < 1e-6 and counts[-1] == 0:
-        verdict = "settles"
-    elif len(good) >= 6 and max(counts[-5:]) == 0 and d[-1] < d[-6]:
-        verdict = "decays"
-    elif counts and counts[-1] > 0:
-        verdict = "localized disorder"
+    if good:
+        verdict, sp = tps.front_fate([r["defect"] for r in good], counts, n, **FATE_RULES)
     else:
-        verdict = "undecided"
-    sp = invasion_speed(counts, n) if verdict == "invades" else None
+        verdict, sp = "undecided", None
     return dict(dx=float(dx), n_nodes=n, length=float(lat.spacing * (n - 1)), ref_count=ref, records=recs,
                 verdict=verdict, speed_nodes=sp, speed_length=None if sp is None else sp * lat.spacing,
                 periods_run=len(good), seconds=time.perf_counter() - wall, cpu=time.process_time() - cpu,

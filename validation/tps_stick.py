@@ -43,30 +43,10 @@ def flat_errors(Gamma, n_nodes=1, perturbation=1e-2):
                 t_liftoff=orb.t_liftoff, t1=orb.t[0], t2=orb.t[1], seconds=time.perf_counter() - start)
 
 
-def front_width(sol, n_times=2048):
-    r"""10-90 % width of :math:`\theta = (\zeta - \zeta_L)/(\zeta_R - \zeta_L)`.
-
-    Evaluated at the phase where :math:`|\zeta_R - \zeta_L|` of the two end nodes is largest
-    (the far fields are half a period apart, so this is where the kink is most pronounced);
-    crossings by linear interpolation between nodes, the outermost ones if theta is not
-    monotone.  Returns (width, phase).
-    """
-    T = sol.period
-    t = np.linspace(0.0, T, n_times, endpoint=False)
-    z = sol.height(t)
-    k = int(np.argmax(np.abs(z[:, -1] - z[:, 0])))
-    zt = z[k]
-    theta = (zt - zt[0]) / (zt[-1] - zt[0])
-    x = sol.nodes
-
-    def crossing(level, first):
-        above = theta >= level
-        idx = np.nonzero(above[1:] != above[:-1])[0]
-        i = idx[0] if first else idx[-1]
-        return x[i] + (level - theta[i]) * (x[i + 1] - x[i]) / (theta[i + 1] - theta[i])
-
-    lo, hi = crossing(0.1, True), crossing(0.9, False)
-    return float(abs(hi - lo)), float(t[k])
+#: Where the front width of a sticking kink is measured: :func:`tps_solver.front_width` at the instant where the
+#: lower far field is highest (min(zeta_L, zeta_R) largest: both far fields and the front in flight), on 2048
+#: samples of the period.
+FRONT_WIDTH = dict(instant="lower_far_field_top", n_samples=2048)
 
 
 def lattice_case(n_nodes, length=40.0, Gamma=4.1, n_basis=6, periods=20, fda_periods=2):
@@ -90,7 +70,7 @@ def lattice_case(n_nodes, length=40.0, Gamma=4.1, n_basis=6, periods=20, fda_per
         chk = ts.check_with_fda(sol, periods=fda_periods)
         out.update(fda_contact_error=chk.contact_error, fda_liftoff_error=chk.liftoff_error,
                    fda_events_per_period=float(np.max(chk.events_per_period)))
-        out["front_width"], out["front_phase"] = front_width(sol)
+        (out["front_width"],), (out["front_phase"],) = tps.front_width(sol, return_times=True, **FRONT_WIDTH)
     # pattern per node summary: kinds of the two contacts
     kinds = ["".join(k[0] for k in row if k) for row in sol.contact_kinds]
     out["patterns"] = sorted(set(kinds))
@@ -167,7 +147,7 @@ def kink_from_shooting(dx, Gamma=4.1, length=40.0, guess_periods=10, n_basis=8, 
         chk = ts.check_with_fda(sol, periods=fda_periods)
         row.update(fda_contact_error=chk.contact_error, fda_liftoff_error=chk.liftoff_error,
                    fda_events_per_period=float(np.max(chk.events_per_period)))
-        row["front_width"], _ = front_width(sol)
+        (row["front_width"],) = tps.front_width(sol, **FRONT_WIDTH)
     return row
 
 

@@ -373,39 +373,56 @@ def core_radius(nodes, zeta, z_in, z_out, level=0.5):
     return float(nodes[i - 1] + (th[i - 1] - level) * (nodes[i] - nodes[i - 1]) / (th[i - 1] - th[i]))
 
 
-def front_width(orbit, n_samples=512):
-    r"""10--90 % width of a kink's front at the two instants where a far field is highest.
+def front_width(orbit, n_samples=512, instant="far_field_tops", return_times=False):
+    r"""10--90 % width of a kink's front, measured at a stated instant of the period.
 
     The package's one front width.  With :math:`\theta = (\zeta - \zeta_L)/(\zeta_R - \zeta_L)`
     (:math:`\zeta_{L,R}` the end nodes, oriented to increase), the width is the distance
-    between :math:`\theta = 0.1` and :math:`0.9` (linear interpolation between nodes), measured
-    at the sampled instant where the left far field is highest and at the one where the right
-    is.  Why these instants: the two far fields are half a period apart, so when one is at the
-    top of its flight the other is low (for e = 0, at rest on the plate) and the contrast
-    :math:`|\zeta_R - \zeta_L|` that normalises :math:`\theta` is near its largest.  The
-    instant where the lower far field is highest (:math:`\min(\zeta_L, \zeta_R)` largest) is
-    for these antiphase far fields where :math:`\zeta_L \approx \zeta_R`, i.e. where
-    :math:`\theta` is 0/0 and the width ill-conditioned, so it is not used.  On a symmetric
-    kink the two widths agree.
+    between :math:`\theta = 0.1` and :math:`0.9` (linear interpolation between nodes; the
+    first node where :math:`\theta` reaches each level), measured on a grid of ``n_samples``
+    instants of one period from ``orbit.t_start`` (0 if the orbit has none) at
+
+    * ``instant="far_field_tops"`` (default): the instant where the left far field is highest
+      and the one where the right is.  Why: the two far fields are half a period apart, so when
+      one is at the top of its flight the other is low and the contrast
+      :math:`|\zeta_R - \zeta_L|` that normalises :math:`\theta` is near its largest; the
+      instant is a smooth maximum of an end node's height, defined for every kink.  On a
+      symmetric kink the two widths agree.
+    * ``instant="lower_far_field_top"``: the one instant where the lower far field is highest,
+      :math:`\min(\zeta_L, \zeta_R)` largest: both far fields, and so the whole front, are as
+      far from the plate as they get in the period, so no node is near a contact (the instant
+      of the impact-and-stick kinks, whose far fields alternate a high and a low flight: the
+      instant is the top of one far field's low flight, with the other in its high flight).
+      Where the far fields cross at that instant (e.g. antiphase sinusoids) :math:`\theta` is
+      0/0; such an orbit is refused (contrast below 5 % of its largest over the period).
 
     Parameters
     ----------
     orbit : PeriodicOrbit
-        A kink on a planar lattice (``orbit.lattice``, ``orbit.height``, ``orbit.period``,
-        ``orbit.t_start``), e.g. from :func:`lattice_kink`.
+        A kink on a planar lattice: ``orbit.height(t)`` -> shape (len(t), n_nodes),
+        ``orbit.period`` and the node positions ``orbit.lattice.nodes`` or ``orbit.nodes``
+        (e.g. from :func:`lattice_kink` or :func:`tps_solver.solve_stick_lattice`).
     n_samples : int
         Samples per period, >= 8.
+    instant : {"far_field_tops", "lower_far_field_top"}
+        Where in the period the width is measured (above).
+    return_times : bool
+        Also return the instants.
 
     Returns
     -------
-    (float, float)
-        Width at the left far field's highest point, width at the right's.
+    widths : tuple of float
+        ``"far_field_tops"``: (width at the left far field's highest point, width at the
+        right's); ``"lower_far_field_top"``: (width,).
+    times : tuple of float
+        The instants of ``widths`` (only with ``return_times``).
 
     Raises
     ------
     ValueError
-        If ``orbit`` is not a lattice orbit (e.g. a FlatLayer), or has no front (the far
-        fields coincide at the measuring instant: a flat orbit).
+        If ``orbit`` is not a lattice orbit (e.g. a FlatLayer), has no front (the far fields
+        coincide at the measuring instant: a flat orbit), or ``instant`` / ``n_samples`` is
+        out of range.
 
     Examples
     --------
@@ -415,26 +432,47 @@ def front_width(orbit, n_samples=512):
     >>> wl, wr = front_width(orb, n_samples=64)
     >>> round(wl, 2), bool(abs(wl - wr) < 1e-9)          # the two halves are mirror images
     (12.76, True)
+    >>> (w,), (t,) = front_width(orb, n_samples=64, instant="lower_far_field_top", return_times=True)
+    >>> bool(8.0 < w < 16.0), bool(orb.t_start <= t < orb.t_start + orb.period)
+    (True, True)
     """
     n_samples = check_int(n_samples, "n_samples", minimum=8)
-    if getattr(orbit, "lattice", None) is None or not hasattr(orbit, "t_start"):
-        raise ValueError(f"orbit must be a kink on a lattice (with lattice, t_start, height, period), "
+    instant = check_choice(instant, "instant", ("far_field_tops", "lower_far_field_top"))
+    lattice = getattr(orbit, "lattice", None)
+    nodes = lattice.nodes if lattice is not None else getattr(orbit, "nodes", None)
+    if nodes is None or not hasattr(orbit, "height") or not hasattr(orbit, "period") or (
+            lattice is not None and not hasattr(orbit, "t_start")):
+        raise ValueError(f"orbit must be a kink on a lattice (with lattice or nodes, height, period), "
                          f"got {type(orbit).__name__}: a flat layer has no front")
-    ts = orbit.t_start + orbit.period * np.arange(n_samples) / n_samples
+    x = np.asarray(nodes, dtype=float)
+    t0 = float(getattr(orbit, "t_start", 0.0) or 0.0)
+    ts = t0 + orbit.period * np.arange(n_samples) / n_samples
     Z = np.asarray(orbit.height(ts))
-    x = orbit.lattice.nodes
+    if Z.shape != (n_samples, x.size) or x.size < 2:
+        raise ValueError(f"orbit must be a kink on a lattice of >= 2 nodes: height(t) has shape {Z.shape}, "
+                         f"nodes {x.shape}")
+    scale = max(float(np.max(np.abs(Z))), np.finfo(float).tiny)
+    if instant == "far_field_tops":
+        rows = [int(np.argmax(Z[:, col])) for col in (0, -1)]
+    else:
+        rows = [int(np.argmax(np.minimum(Z[:, 0], Z[:, -1])))]
     out = []
-    for col in (0, -1):
-        z = Z[int(np.argmax(Z[:, col]))]
-        scale = max(float(np.max(np.abs(Z))), np.finfo(float).tiny)
+    for k in rows:
+        z = Z[k]
+        if instant == "lower_far_field_top":
+            contrast = np.max(np.abs(Z[:, -1] - Z[:, 0]))
+            if contrast > 1e-9 * scale and abs(z[-1] - z[0]) < 0.05 * contrast:
+                raise ValueError(f"instant='lower_far_field_top' is ill-conditioned for this orbit: its far fields "
+                                 f"nearly cross there (|zeta_R - zeta_L| = {abs(z[-1] - z[0]):.3g}, below 5 % of its "
+                                 f"largest {contrast:.3g}); use instant='far_field_tops'")
         if abs(z[-1] - z[0]) <= 1e-9 * scale:
             raise ValueError("orbit has no front: its far fields coincide (|zeta_R - zeta_L| = "
                              f"{abs(z[-1] - z[0]):.3g} at the measuring instant), e.g. a flat orbit")
-        th = (z - z[0]) / (z[-1] - z[0])
-        if th[-1] < th[0]:
+        if z[-1] < z[0]:
             z = z[::-1]
             xx = -x[::-1]
         else:
             xx = x
         out.append(abs(interface_position(xx, z, 0.9) - interface_position(xx, z, 0.1)))
-    return tuple(float(v) for v in out)
+    widths = tuple(float(v) for v in out)
+    return (widths, tuple(float(ts[k]) for k in rows)) if return_times else widths

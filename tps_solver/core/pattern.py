@@ -218,6 +218,55 @@ class ContactPattern(Bunch):
         """The letter sequence of every node, a list of str of length ``n_nodes``."""
         return [self.sequence(j) for j in range(self.n_nodes)]
 
+    def event_sequences(self, brief=None):
+        """Every node's landings and lift-offs of the period in time order, as space-separated tokens.
+
+        The landings are the letters of :data:`LETTERS` (a stick whose time at rest is below
+        ``brief`` is ``s``), a lift-off from rest is ``L``, or ``L*`` where a neighbour's landing
+        triggered it (``ended_by``); each sequence is rotated to start at the node's first
+        lift-off (the study alphabet of ``validation/inelastic_kinks.py``).
+
+        Parameters
+        ----------
+        brief : float, optional
+            Time at rest (units 1/omega) below which a stick is brief (``s``), > 0.
+
+        Returns
+        -------
+        list of str, length n_nodes
+
+        Examples
+        --------
+        >>> import math
+        >>> p = ContactPattern.from_contacts([0, 0, 1], [3.0, 4.0, 2.0], ["T", "S", "S"], 2, 12.0,
+        ...                                  liftoff=[math.nan, 14.0, 5.0], trigger=[-1, 1, -1])
+        >>> p.event_sequences(), p.event_sequences(brief=5.0)
+        (['L* T S', 'L S'], ['L* T S', 'L s'])
+        """
+        if brief is not None and not (isinstance(brief, (int, float, np.floating)) and np.isfinite(brief)
+                                      and brief > 0):
+            raise ValueError(f"brief must be a finite number > 0, got {brief!r}")
+        T, t0 = self.period, self.t_start
+        rest_t = self.rest_times()
+        out = []
+        for j in range(self.n_nodes):
+            toks = []                                    # (time in the window, order, token)
+            for i in np.flatnonzero(self.node == j):
+                k = str(self.kind[i])
+                letter = LETTERS[k]
+                if k == "stick" and brief is not None and rest_t[i] < brief:
+                    letter = "s"
+                toks.append((float(self.t[i]), 0, letter))
+                if k in _AT_REST:
+                    tl = t0 + float(np.mod(self.liftoff[i] - t0, T))
+                    toks.append((tl, 1, "L*" if self.ended_by[i] == "triggered" else "L"))
+            toks = [tok for _, _, tok in sorted(toks, key=lambda r: (r[0], r[1]))]
+            lifts = [k for k, tok in enumerate(toks) if tok.startswith("L")]
+            if lifts:
+                toks = toks[lifts[0]:] + toks[:lifts[0]]
+            out.append(" ".join(toks))
+        return out
+
     def rest_times(self):
         """Time at rest after each contact (``liftoff - t``; 0 without rest), shape (C,)."""
         return np.where(np.isfinite(self.liftoff), self.liftoff - self.t, 0.0)
