@@ -62,7 +62,7 @@ def main():
         flat = stick_flat_branch()
         from validation.tps_stick import continuation
         branch, rows = continuation()
-    lines = ["## One problem, one Newton (issue 19)", "",
+    lines = ["## One problem, one Newton", "",
              "Every nonlinear solve is `tps_solver.core.newton.newton` on a problem of the protocol of "
              "`core/problem.py`. Newton steps on each former loop's standard case, before (commit 33c4ade, "
              "five loops) and now (one engine):", "",
