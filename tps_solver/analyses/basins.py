@@ -75,6 +75,7 @@ import numpy as np
 
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.costs import check_cost
 from tps_solver.core.newton import newton
 from tps_solver.core.problem import Inadmissible, Problem
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
@@ -552,6 +553,9 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
         raise ValueError(f"periods must give at least 2 * p_max = {2 * p_max} forcing cycles, "
                          f"got periods * M = {max_cycles}")
 
+    # the parameter dicts (about 1 kB each) and at least 1e-6 s per sample and forcing cycle
+    check_cost("flat_basins", "n_samples", n_samples, 1.0e3 * n_samples + 1e6, 1.0e-6 * n_samples * max_cycles,
+               hint=f"{n_samples} samples of up to {max_cycles} forcing cycles")
     rng = np.random.default_rng(seed)
     u = rng.random((n_samples, 2))
     w0 = w_lo + (w_hi - w_lo) * u[:, 0]

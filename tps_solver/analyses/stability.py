@@ -50,6 +50,8 @@ Cost and interrupts: ``callback(state)`` receives a
 The small dense kernels run on one BLAS thread (:func:`tps_solver.core.costs.blas_threads`).
 """
 
+import math
+
 import numpy as np
 
 from tps_solver.core import archive as io
@@ -59,7 +61,7 @@ from tps_solver.solvers.shooting.floquet import fit_growth
 from tps_solver.solvers.shooting.period_map import PeriodMap
 from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 from tps_solver.core.checks import check_choice, check_int, check_positive
-from tps_solver.core.costs import blas_threads, small_dense
+from tps_solver.core.costs import blas_threads, check_cost, simulate_cost, small_dense
 from tps_solver.solvers.fda import Lattice, flat_state, simulate
 from tps_solver.solvers.shooting.soft_monodromy import soft_monodromy
 
@@ -332,6 +334,10 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         raise ValueError("solution must be a FlatLayer or a PeriodicSolution (with geometry, nodes, "
                          f"velocity, height, period), got {type(solution).__name__}")
 
+    n_cycles = periods * T / (2.0 * math.pi)
+    nbytes, seconds = simulate_cost(lattice.n_nodes, n_cycles, periods + 1)
+    check_cost("check_stability", "periods", periods, 2 * nbytes, 2 * seconds,
+               hint=f"two runs of {periods} periods on {lattice.n_nodes} nodes")
     with blas_threads(1, enabled=small_dense(lattice.n_nodes)):
         return _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method, kw, notes,
                         perturbation, seed, jacobian, jacobian_step, jacobian_rtol, defect_tol,

@@ -323,6 +323,31 @@ def harmonics_cost(N):
     return 4 * 16.0 * (2 * N + 1), 4 * (2 * N + 1) / _EXP_RATE
 
 
+#: Lower bounds of the time stepper's cost, measured on the fastest case (a flat layer of
+#: 9-101 nodes, point impacts: 1.1e-4 s per forcing cycle at 9 nodes, 3.1e-6 s per node and cycle
+#: at 101 nodes), divided by ten: the refusal never stops a run that would have been fast.
+SIMULATE_SECONDS_PER_CYCLE = 1.0e-5
+SIMULATE_SECONDS_PER_NODE_CYCLE = 3.0e-7
+
+
+def simulate_cost(n_nodes, n_cycles, n_eval=0):
+    r"""A lower bound on the memory and time of :func:`~tps_solver.simulate` over ``n_cycles``
+    forcing cycles :math:`2\pi` (at least one event set per cycle and O(n) work per node and
+    cycle), with ``n_eval`` output times.
+
+    Examples
+    --------
+    >>> nbytes, seconds = simulate_cost(9, 1e3)        # a thousand cycles: milliseconds
+    >>> int(nbytes), round(seconds, 6)
+    (1000576, 0.0127)
+    >>> simulate_cost(5, 2e9)[1] > 3600                # a billion periods: refused
+    True
+    """
+    n, c = float(n_nodes), float(n_cycles)
+    nbytes = 2 * 8.0 * n * float(n_eval) + 8.0 * 8 * n + 1e6
+    return nbytes, c * (SIMULATE_SECONDS_PER_CYCLE + n * SIMULATE_SECONDS_PER_NODE_CYCLE)
+
+
 # --------------------------------------------------------------- BLAS threads
 def small_dense(n_nodes):
     """True if dense kernels of size ``n_nodes`` are faster on one BLAS thread (n <= SMALL_DENSE).

@@ -12,7 +12,7 @@ import numpy as np
 from tps_solver.core.checks import check_array, check_choice, check_int, check_nonnegative, check_positive, check_restitution
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.progress import progress_state
-from tps_solver.core.costs import blas_threads, small_dense
+from tps_solver.core.costs import blas_threads, check_cost, simulate_cost, small_dense
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda.common import SimulationResult, check_time_window, stack_samples
 from tps_solver.solvers.fda.events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
@@ -163,6 +163,17 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
                 raise ValueError(f"{name} does not apply to method={method!r} (the soft contact resolves "
                                  f"contacts itself), got {name}={value!r}")
         stuck = zeta < 0.0
+    if not cls.impulsive and "cutoff" in options and options["cutoff"] is not None:
+        tau_c = float(options["cutoff"]) ** 2
+        resolution = 1e3 * np.finfo(float).eps * max(abs(t_start), abs(t_end), 2.0 * math.pi)
+        if not tau_c > resolution:
+            raise ValueError(
+                f"cutoff = {options['cutoff']!r} gives a contact of duration tau_c = cutoff**2 = {tau_c:.3g}, "
+                f"below the time resolution 1e3 eps max|t| = {resolution:.3g} of this run (the contacts "
+                f"could not be resolved); use cutoff > {math.sqrt(resolution):.3g}")
+    n_cycles = (t_end - t_start) / (2.0 * math.pi)
+    check_cost("simulate", "t_end", t_end, *simulate_cost(n, n_cycles, 0 if t_eval is None else len(t_eval)),
+               hint=f"{n_cycles:.3g} forcing cycles on {n} nodes; simulate fewer periods")
     with blas_threads(1, enabled=small_dense(n)):
         return _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, method, options,
                           cutoff, rule, stick_velocity, max_events_per_cycle, callback,

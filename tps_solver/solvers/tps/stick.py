@@ -93,6 +93,7 @@ from tps_solver.core.bunch import Bunch
 from tps_solver.core.orbit import PeriodicOrbit
 from tps_solver.core.pattern import ContactPattern
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
+from tps_solver.core.costs import check_cost
 from tps_solver.core.newton import newton
 from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_orbit
 from tps_solver.solvers.tps.stick_pattern import (StickPattern, check_pattern, check_with_fda, kink_state,
@@ -358,6 +359,13 @@ def _solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, 
     return sol
 
 
+def _check_harmonics_cost(N, n):
+    """Refuse ``n_harmonics`` whose closed-form harmonics (one dense n x n solve and three complex
+    arrays of shape (2N + 1, n)) exceed the cost limits."""
+    check_cost("the impact-and-stick TPS", "n_harmonics", N, 3 * 16.0 * (2 * N + 1) * n + 1e6,
+               (2 * N + 1) * (n ** 3 + 100.0 * n) / 5e9, hint="the harmonics are computed in closed form")
+
+
 def _check_args(Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics):
     Gamma = check_positive(Gamma, "Gamma")
     M = check_int(M, "M", minimum=1)
@@ -412,6 +420,7 @@ def solve_stick_flat(Gamma=4.1, M=2, e=0.0, n_harmonics=32, *, n_nodes=1, length
 
     Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics = _check_args(
         Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics)
+    _check_harmonics_cost(n_harmonics, check_int(n_nodes, "n_nodes", minimum=1))
     if e != 0.0:
         raise ValueError(f"e must be 0 for the flat stick orbit (for e > 0 use tps.FlatLayer), got {e}")
     n_nodes = check_int(n_nodes, "n_nodes", minimum=1)
@@ -506,6 +515,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
         raise ValueError(f"lattice.boundary must be 'neumann', got {lattice.boundary!r}")
     Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics = _check_args(
         Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics)
+    _check_harmonics_cost(n_harmonics, lattice.n_nodes)
     T = 2 * math.pi * M
     run = orbit = None
     if pattern is None:

@@ -1,0 +1,52 @@
+"""Calls that would run without end or allocate without bound estimate first and refuse by name."""
+import numpy as np
+import pytest
+
+import tps_solver as tps
+from tps_solver.core import costs
+
+FLAT = tps.FlatLayer(2.5, e=0.45)
+
+
+def _flat_state(n):
+    t = FLAT.t0 + 1.0
+    return np.full(n, FLAT.velocity(t)), np.full(n, FLAT.height(t)), t
+
+
+@pytest.mark.parametrize("method, kw", [("exact", {}), ("point", {}), ("soft", {"cutoff": 0.3})])
+def test_simulate_refuses_a_billion_periods_with_its_estimate(method, kw):
+    lat = tps.Lattice.planar(n_nodes=5, length=4.0)
+    w, z, t = _flat_state(5)
+    with pytest.raises(ValueError, match=r"t_end = .* out of reach for simulate: estimated run time at least"):
+        tps.simulate(lat, 2.5, 0.45, w, z, t_start=t, t_end=t + 1e9 * FLAT.period, method=method, **kw)
+
+
+def test_simulate_refuses_a_cutoff_below_the_time_resolution():
+    lat = tps.Lattice.planar(n_nodes=5, length=4.0)
+    w, z, t = _flat_state(5)
+    with pytest.raises(ValueError, match=r"cutoff = 1e-12 gives a contact of duration tau_c = cutoff\*\*2"):
+        tps.simulate(lat, 2.5, 0.45, w, z, t_start=t, t_end=t + FLAT.period, method="soft", cutoff=1e-12)
+
+
+def test_the_simulate_bound_is_a_lower_bound():
+    """The estimate never exceeds the measured time of a fast case (a flat layer, point impacts)."""
+    import time
+
+    lat = tps.Lattice.planar(n_nodes=9, length=40.0)
+    w, z, t = _flat_state(9)
+    tic = time.perf_counter()
+    tps.simulate(lat, 2.5, 0.45, w, z, t_start=t, t_end=t + 20 * FLAT.period, method="point")
+    measured = time.perf_counter() - tic
+    assert costs.simulate_cost(9, 20 * FLAT.period / (2 * np.pi))[1] < measured
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda: tps.check_stability(FLAT, periods=10**9), "periods"),
+    (lambda: tps.flat_basins(2.5, 0.45, n_samples=10**9), "n_samples"),
+    (lambda: tps.solve_stick_lattice(tps.Lattice.planar(n_nodes=9, length=40.0), n_harmonics=10**9),
+     "n_harmonics"),
+    (lambda: tps.solve_stick_flat(n_harmonics=10**9), "n_harmonics"),
+])
+def test_unbounded_sizes_are_refused_by_name(call, name):
+    with pytest.raises(ValueError, match=rf"{name} = 1000000000 is out of reach for .*: estimated"):
+        call()
