@@ -419,6 +419,8 @@ def _wilson(k, n):
 
 
 def _stats(k, n):
+    if n == 0:                      # an interrupted run with no finished sample
+        return dict(count=0, fraction=math.nan, stderr=math.nan, interval=(math.nan, math.nan))
     f = k / n
     return dict(count=int(k), fraction=f, stderr=math.sqrt(f * (1.0 - f) / n), interval=_wilson(k, n))
 
@@ -526,7 +528,7 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     >>> round(res.flat_fraction, 3), res.converged
     (1.0, True)
     """
-    from tps_solver.analyses.sweep import sweep
+    from tps_solver.analyses.sweep import SweepInterrupted, sweep
 
     Gamma, e, model, cutoff = _check_model(Gamma, e, model, cutoff)
     M = check_int(M, "M", minimum=1)
@@ -564,7 +566,17 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
                   max_cycles=max_cycles, tol=tol, stick_velocity=stick_velocity, integrator=integrator,
                   max_events=max_events, soft_sticking=bool(soft_sticking))
     params = [dict(common, w0=float(a), zeta0=float(b)) for a, b in zip(w0, z0)]
-    samples = sweep(_basin_sample, params, executor=executor, store=store, progress=progress)
+    requested = n_samples
+    try:
+        samples = sweep(_basin_sample, params, executor=executor, store=store, progress=progress)
+        interrupted = False
+    except SweepInterrupted as exc:
+        # Ctrl-C: classify the samples that finished (status 5); the store keeps them for a rerun
+        done = np.array([s is not None for s in exc.results], dtype=bool)
+        samples = [s for s in exc.results if s is not None]
+        w0, z0 = w0[done], z0[done]
+        n_samples = len(samples)
+        interrupted = True
 
     ball = _make_ball(Gamma, e, model, cutoff, stick_velocity, max_events, integrator, bool(soft_sticking))
     attractors, raw = [], []                 # raw: (canonical points (index = 0 mod p), period)
@@ -644,8 +656,12 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
         fractions["failed"], stderr["failed"] = fs["fraction"], fs["stderr"]
     flat = [a for a in out if a.is_flat]
     flat_fraction = sum(a.fraction for a in flat)
-    flat_stderr = math.sqrt(flat_fraction * (1.0 - flat_fraction) / n_samples)
-    if n_fail:
+    flat_stderr = math.sqrt(flat_fraction * (1.0 - flat_fraction) / n_samples) if n_samples else math.nan
+    if interrupted:
+        status = 5
+        message = (f"interrupted (KeyboardInterrupt) after {n_samples} of {requested} samples; the fractions "
+                   f"are over those {n_samples} (rerun with the same store to finish)")
+    elif n_fail:
         status = 6
         first = next(s["message"] for s in samples if s["status"] == "failed")
         message = (f"{n_fail} of {n_samples} samples failed ({first}); raise max_events_per_cycle or "

@@ -117,6 +117,15 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
     if periods > 0:
         run = simulate(lattice, Gamma, e, w0, z0, t_start=t_start, t_end=t_start + periods * T,
                        method=method, **sim_kw)
+        if run.status == 5:
+            # interrupted while settling: the state so far, not a periodic orbit (no Newton step)
+            orb = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, cutoff=cutoff, guess=run, method=method,
+                                      max_iter=0, section="fixed", multipliers=False,
+                                      **{k: v for k, v in (simulate_kw or {}).items()})
+            orb.update(status=5, status_text="interrupted", converged=False, success=False, localized=False,
+                       message=f"interrupted during the settling run ({run.message}); the state reached "
+                               "is returned, not a periodic orbit (pass it as guess= to go on)")
+            return orb
         if run.success:
             guess, t_guess = run, None
         else:

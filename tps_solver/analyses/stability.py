@@ -373,10 +373,10 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
     t_eval = t_s + T * np.arange(periods + 1)
     ref = simulate(lattice, Gamma, e, w0, z0, t_start=t_s, t_end=t_eval[-1], method=method,
                    t_eval=t_eval, callback=runner("reference", periods), **kw)
-    finish_stage(periods)
     interrupted = ref.status == 5
     Z, W = ref.zeta_eval, ref.w_eval
     k_done = Z.shape[0]
+    finish_stage(max(k_done - 1, 0) if interrupted else periods)
     defects = np.column_stack((np.max(np.abs(np.diff(Z, axis=0)), axis=1),
                                np.max(np.abs(np.diff(W, axis=0)), axis=1))) if k_done > 1 else np.empty((0, 2))
     initial_defect = defects[0] if defects.size else np.array([np.nan, np.nan])
@@ -407,7 +407,7 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
                         t_end=t_eval[-1], method=method, t_eval=t_eval, callback=runner("perturbed", periods),
                         **kw)
         interrupted = pert.status == 5
-    finish_stage(periods)
+        finish_stage(max(pert.zeta_eval.shape[0] - 1, 0) if interrupted else periods)
     k = min(pert.zeta_eval.shape[0], k_done)
     dist = np.maximum(np.max(np.abs(pert.zeta_eval[:k] - Z[:k]), axis=1),
                       np.max(np.abs(pert.w_eval[:k] - W[:k]), axis=1))
@@ -480,8 +480,9 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
                 and flat is not None and getattr(flat, "is_stable", False) and ref.success)
     verdict = "stable" if stable else "not stable"
     if interrupted:
-        verdict = (f"interrupted (KeyboardInterrupt) after {done['periods']:.3g} of {total:.3g} periods; "
-                   f"no verdict, the fields hold what was measured so far; not stable")
+        verdict = (f"interrupted (KeyboardInterrupt) after {done['periods']:.0f} of {total:.0f} periods; "
+                   f"no verdict (stable=False only because nothing was decided); the fields hold what "
+                   f"was measured so far; measured")
     elif grid:
         mu = float(np.max(np.abs(flat.floquet_multipliers())))
         verdict = (f"not stable, by the grid-scale instability of point impacts, not of the flat layer "
