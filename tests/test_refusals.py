@@ -50,3 +50,18 @@ def test_the_simulate_bound_is_a_lower_bound():
 def test_unbounded_sizes_are_refused_by_name(call, name):
     with pytest.raises(ValueError, match=rf"{name} = 1000000000 is out of reach for .*: estimated"):
         call()
+
+
+# ------------------------------------------------------------------ no silent answers
+@pytest.mark.parametrize("call, match", [
+    (lambda: tps.continue_branch(FLAT, "Gamma", (2.3, 2.5, 2.7)), r"bounds must be a pair .* got 3 values"),
+    (lambda: tps.continue_branch(FLAT, "Gamma", (2.4, 2.6), multipliers="yes"), "multipliers must be True or False"),
+    (lambda: tps.continue_branch(FLAT, "Gamma", (2.4, 2.6), bothsides="yes"), "bothsides must be True or False"),
+    (lambda: tps.find_periodic_orbit(tps.Lattice.planar(n_nodes=5, length=4.0), multipliers=1, max_iter=0),
+     "multipliers must be True or False"),
+    (lambda: tps.solve_stick_lattice(tps.Lattice.planar(n_nodes=9, length=40.0), 4.1, w0=np.zeros(9)),
+     "w0 and zeta0 must be given together"),
+])
+def test_contradictory_or_loose_options_are_refused_by_name(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()

@@ -69,7 +69,7 @@ import time
 import numpy as np
 
 from tps_solver.core import archive
-from tps_solver.core.checks import check_choice, check_int, check_positive, check_real
+from tps_solver.core.checks import check_bool, check_choice, check_int, check_positive, check_real
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.newton import newton
 from tps_solver.core.progress import progress_state
@@ -647,6 +647,8 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     >>> bool(abs(br.special_points[0][1] - lo) < 1e-8 and abs(br.special_points[1][1] - hi) < 1e-8)
     True
     """
+    bothsides = check_bool(bothsides, "bothsides")
+    multipliers = check_bool(multipliers, "multipliers")
     if bothsides:
         kw = dict(step=step, max_step=max_step, min_step=min_step, max_points=max_points, tol=tol,
                   tol_special=tol_special, multipliers=multipliers, max_corrector=max_corrector,
@@ -658,6 +660,9 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     if bounds is None:
         raise ValueError("bounds must be given: a (low, high) interval of the parameter")
     try:
+        if len(bounds) != 2:
+            raise ValueError(f"bounds must be a pair (low, high) of finite numbers, got {len(bounds)} values "
+                             f"{tuple(bounds)!r}")
         lo, hi = (check_real(b, "bounds") for b in bounds)
     except TypeError:
         raise ValueError(f"bounds must be a pair (low, high) of finite numbers, got {bounds!r}") from None

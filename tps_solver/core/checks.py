@@ -12,8 +12,25 @@ import numpy as np
 
 __all__ = [
     "check_real", "check_positive", "check_nonnegative", "check_in_range",
-    "check_restitution", "check_int", "check_choice", "check_array",
+    "check_restitution", "check_int", "check_choice", "check_array", "check_bool",
 ]
+
+
+def check_bool(value, name):
+    """``value`` as a bool; only ``True``/``False`` (and numpy bools) are accepted.
+
+    Examples
+    --------
+    >>> check_bool(True, "multipliers")
+    True
+    >>> check_bool("yes", "multipliers")
+    Traceback (most recent call last):
+    ...
+    ValueError: multipliers must be True or False, got 'yes'
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r}")
 
 
 def _is_real_scalar(value):

@@ -65,7 +65,7 @@ import numpy as np
 
 from tps_solver.core import archive
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
-from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
+from tps_solver.core.checks import check_array, check_bool, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.newton import newton
 from tps_solver.core.progress import progress_state
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
@@ -510,6 +510,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
     if method != "soft" and cutoff is not None:
         raise ValueError(f"cutoff is only used with method='soft', got method={method!r}")
     section = check_choice(section, "section", ("auto", "fixed"))
+    multipliers = check_bool(multipliers, "multipliers")
     defaults = {"exact": (1e-11, 1e-7, 1e-7), "point": (1e-11, 1e-7, 1e-7), "ode": (1e-9, 1e-6, 1e-6),
                 "soft": (1e-10, 1e-5, 1e-4)}[method]
     tol = defaults[0] if tol is None else check_positive(tol, "tol")

@@ -520,7 +520,10 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     run = orbit = None
     if pattern is None:
         periods = check_int(periods, "periods", minimum=2)
-        if w0 is None or zeta0 is None:
+        if (w0 is None) != (zeta0 is None):
+            raise ValueError(f"w0 and zeta0 must be given together (got only {'w0' if zeta0 is None else 'zeta0'}); "
+                             "give both, or neither for the default kink start")
+        if w0 is None:
             t_start, w0, zeta0 = kink_state(lattice, Gamma, M)
         elif t_start is None:
             t_start = 0.0
