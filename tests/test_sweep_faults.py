@@ -117,3 +117,80 @@ def test_on_error_raise_keeps_todays_behaviour(tmp_path):
 def test_bad_on_error_is_refused(bad):
     with pytest.raises(ValueError, match=r"on_error must be one of 'record', 'raise', got"):
         sweep(faulty_task, {"x": [1], "log_dir": ["unused"]}, executor="serial", progress=False, on_error=bad)
+
+
+# ------------------------------------------------------------- damaged or misplaced store files
+def _fresh_store(tmp_path, xs):
+    log, store = tmp_path / "log", tmp_path / "store"
+    log.mkdir()
+    params = {"x": list(xs), "log_dir": [str(log)]}
+    assert sweep(faulty_task, params, executor="serial", store=store, progress=False) == [x * x for x in xs]
+    keys = [param_key({"x": x, "log_dir": str(log)}) for x in xs]
+    return log, store, params, keys
+
+
+def _rerun_recomputes(caplog, log, store, params, keys, bad, reported=None):
+    """Rerun; the points ``bad`` (indices) must be recomputed, those ``reported`` (default ``bad``) reported."""
+    reported = bad if reported is None else reported
+    before = len(_calls(log))
+    caplog.clear()
+    res = sweep(faulty_task, params, executor="serial", store=store, progress=False)
+    assert res == [x * x for x in params["x"]] and res.failed == []
+    assert len(_calls(log)) - before == len(bad)
+    msgs = _messages(caplog)
+    for i in reported:
+        assert any(f"store file {keys[i]}.npz refused" in m and "recomputing" in m for m in msgs), msgs
+    assert len(msgs) == len(reported)
+    assert sorted(r for _, r in load_store(store)) == sorted(x * x for x in params["x"])   # files rewritten
+
+
+def test_bit_flipped_point_files_are_recomputed_and_reported(tmp_path, caplog):
+    caplog.set_level(logging.WARNING, logger=LOGGER)
+    log, store, params, keys = _fresh_store(tmp_path, [3])
+    name = store / f"{keys[0]}.npz"
+    good = name.read_bytes()
+    rng = np.random.default_rng(20240611)
+    spots = list(rng.integers(0, len(good), size=24)) + [0, len(good) - 1]     # anywhere, both ends too
+    for pos, bit in zip(spots, rng.integers(0, 8, size=len(spots))):
+        bad = bytearray(good)
+        bad[pos] ^= 1 << int(bit)
+        name.write_bytes(bytes(bad))
+        _rerun_recomputes(caplog, log, store, params, keys, [0])
+        assert name.read_bytes() != bytes(bad)
+
+
+def test_truncated_point_files_are_recomputed_and_reported(tmp_path, caplog):
+    caplog.set_level(logging.WARNING, logger=LOGGER)
+    log, store, params, keys = _fresh_store(tmp_path, [3])
+    name = store / f"{keys[0]}.npz"
+    good = name.read_bytes()
+    rng = np.random.default_rng(7)
+    for size in [0, 1, len(good) - 1, len(good) // 2] + list(rng.integers(2, len(good) - 1, size=8)):
+        name.write_bytes(good[:size])
+        _rerun_recomputes(caplog, log, store, params, keys, [0])
+    name.write_bytes(good + b"\x00")                                       # bytes appended: damaged too
+    _rerun_recomputes(caplog, log, store, params, keys, [0])
+
+
+def test_copied_or_swapped_point_files_are_recomputed_and_reported(tmp_path, caplog):
+    caplog.set_level(logging.WARNING, logger=LOGGER)
+    log, store, params, keys = _fresh_store(tmp_path, [2, 3, 5, 7])
+    files = [store / f"{k}.npz" for k in keys]
+    raw = [f.read_bytes() for f in files]
+    files[0].write_bytes(raw[1])                                           # one copied over another
+    _rerun_recomputes(caplog, log, store, params, keys, [0])
+    files[2].write_bytes(raw[3])                                           # two swapped
+    files[3].write_bytes(raw[2])
+    _rerun_recomputes(caplog, log, store, params, keys, [2, 3])
+    os.replace(files[1], files[0])                                         # one renamed over another
+    _rerun_recomputes(caplog, log, store, params, keys, [0, 1], reported=[0])       # (1 is just missing)
+
+
+def test_a_point_file_whose_params_do_not_give_its_key_is_recomputed(tmp_path, caplog):
+    from tps_solver.analyses.sweep import StorePoint
+    from tps_solver.core import archive
+
+    caplog.set_level(logging.WARNING, logger=LOGGER)
+    log, store, params, keys = _fresh_store(tmp_path, [2, 3])
+    archive.save(StorePoint(key=keys[0], params={"x": 3, "log_dir": str(log)}, result=9), store / f"{keys[0]}.npz")
+    _rerun_recomputes(caplog, log, store, params, keys, [0])
