@@ -194,3 +194,83 @@ def test_a_point_file_whose_params_do_not_give_its_key_is_recomputed(tmp_path, c
     log, store, params, keys = _fresh_store(tmp_path, [2, 3])
     archive.save(StorePoint(key=keys[0], params={"x": 3, "log_dir": str(log)}, result=9), store / f"{keys[0]}.npz")
     _rerun_recomputes(caplog, log, store, params, keys, [0])
+
+
+# ------------------------------------------------------------------------- kill -9 of the parent
+_SCRIPT = textwrap.dedent("""
+    import importlib, sys
+    if __name__ == "__main__":
+        module, log, store = sys.argv[1:4]
+        from tps_solver.analyses.sweep import sweep
+        task = importlib.import_module(module).faulty_task
+        sweep(task, {"x": list(range(8)), "log_dir": [log], "delay": [0.4]}, store=store, max_workers=2,
+              progress=False)
+""")
+
+
+def _proc_stat(pid):
+    """(state, ppid, start time) of ``pid`` from /proc, or None when there is no such process."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except (FileNotFoundError, ProcessLookupError):
+        return None
+    fields = text.rsplit(")", 1)[1].split()
+    return fields[0], int(fields[1]), fields[19]
+
+
+def _descendants(root):
+    """{pid: start time} of every living descendant of ``root`` (from /proc)."""
+    parent = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            st = _proc_stat(int(entry.name))
+            if st is not None:
+                parent[int(entry.name)] = st
+    out, frontier = {}, [root]
+    while frontier:
+        p = frontier.pop()
+        for pid, (_, ppid, start) in parent.items():
+            if ppid == p and pid not in out:
+                out[pid] = start
+                frontier.append(pid)
+    return out
+
+
+def _alive(pid, start):
+    st = _proc_stat(pid)
+    return st is not None and st[2] == start and st[0] not in ("Z", "X")     # a zombie has exited
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_kill_9_of_the_parent_leaves_no_workers_and_a_rerun_finishes(tmp_path):
+    log, store = tmp_path / "log", tmp_path / "store"
+    log.mkdir()
+    script = tmp_path / "run_sweep.py"
+    script.write_text(_SCRIPT)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    with open(tmp_path / "stderr.txt", "wb") as err:
+        sub = subprocess.Popen([sys.executable, str(script), faulty_task.__module__, str(log), str(store)],
+                               env=env, stdout=subprocess.DEVNULL, stderr=err)
+    try:
+        deadline = time.monotonic() + 60.0
+        while len(list(store.glob("*.npz"))) < 2:                     # the workers are up and computing
+            assert sub.poll() is None, (tmp_path / "stderr.txt").read_text()
+            assert time.monotonic() < deadline, "the sweep did not start"
+            time.sleep(0.05)
+        children = _descendants(sub.pid)
+        assert len(children) >= 2, children                           # 2 workers (and a resource tracker)
+    finally:
+        os.kill(sub.pid, signal.SIGKILL)
+        sub.wait()
+    killed_at = time.monotonic()
+    while any(_alive(pid, start) for pid, start in children.items()):
+        assert time.monotonic() - killed_at < 10.0, f"orphans left: {[p for p in children if _alive(p, children[p])]}"
+        time.sleep(0.1)
+    stored = {p.stem for p in store.glob("*.npz")}
+    params = {"x": list(range(8)), "log_dir": [str(log)], "delay": [0.4]}
+    keys = [param_key({"x": x, "log_dir": str(log), "delay": 0.4}) for x in range(8)]
+    assert 2 <= len(stored) < 8 and stored <= set(keys)
+    (log / "gen").write_text("2")
+    res = sweep(faulty_task, params, store=store, max_workers=2, progress=False)
+    assert res == [x * x for x in range(8)] and res.failed == []
+    assert _calls(log, gen=2) == [x for x, k in zip(range(8), keys) if k not in stored]
