@@ -247,7 +247,9 @@ def test_kill_9_of_the_parent_leaves_no_workers_and_a_rerun_finishes(tmp_path):
     log.mkdir()
     script = tmp_path / "run_sweep.py"
     script.write_text(_SCRIPT)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    here = Path(__file__).resolve().parent                              # this module, and the package above it
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(here), str(here.parent)] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
     with open(tmp_path / "stderr.txt", "wb") as err:
         sub = subprocess.Popen([sys.executable, str(script), faulty_task.__module__, str(log), str(store)],
                                env=env, stdout=subprocess.DEVNULL, stderr=err)
