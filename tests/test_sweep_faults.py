@@ -103,6 +103,22 @@ def test_duplicate_params_fail_together_and_are_called_once(tmp_path):
     assert _calls(tmp_path) == [1, 2]
 
 
+def crashing_task(x):
+    """x**2, but the worker process dies at x == 1 (as native code crashing would)."""
+    if x == 1:
+        os._exit(3)
+    return x * x
+
+
+def test_a_crashed_worker_makes_failed_points_not_a_crashed_sweep(tmp_path):
+    store = tmp_path / "store"
+    res = sweep(crashing_task, {"x": [0, 1, 2, 3]}, store=store, max_workers=2, progress=False)
+    assert 1 in res.failed and res[1].error.startswith("BrokenProcessPool")
+    assert res.failed == [i for i, r in enumerate(res) if isinstance(r, FailedPoint)]
+    assert all(res[i] == i * i for i in range(4) if i not in res.failed)
+    assert len(list(store.glob("*.npz"))) == 4 - len(res.failed)
+
+
 def test_on_error_raise_keeps_todays_behaviour(tmp_path):
     log = tmp_path / "log"
     log.mkdir()
