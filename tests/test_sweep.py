@@ -110,7 +110,7 @@ def test_rerun_after_a_task_failure_computes_only_the_missing_points(tmp_path):
     log.mkdir()
     params = {"x": [1, 2, 3, 4, 5, 6], "log_dir": [str(log)], "fail_on": [4]}
     with pytest.raises(RuntimeError, match="planned failure at x = 4") as info:
-        sweep(counting_task, params, executor="serial", store=store, progress=False)
+        sweep(counting_task, params, executor="serial", store=store, progress=False, on_error="raise")
     assert any("3 of 6 finished points kept" in note for note in info.value.__notes__)
     assert _calls(log) == [1, 2, 3, 4]
     assert len(list(store.glob("*.npz"))) == 3

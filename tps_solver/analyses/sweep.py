@@ -30,9 +30,34 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
 * **Interruption.**  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the
   callback) cancels the points not yet started and raises
   :class:`SweepInterrupted`, a ``KeyboardInterrupt`` carrying the partial
-  results; the finished points are in the store.  An exception raised by the
-  task cancels the points not yet started, waits for the running ones, stores
-  every finished point and is re-raised with a note naming the failing point.
+  results; the finished points are in the store.  With ``on_error="raise"``
+  an exception raised by the task cancels the points not yet started, waits
+  for the running ones, stores every finished point and is re-raised with a
+  note naming the failing point.  If the calling process is killed outright
+  (``kill -9``, the out-of-memory killer), the workers of the default pool
+  notice that their parent is gone within about a second and exit (a
+  daemon thread of each worker polls :func:`os.getppid`; POSIX, and only
+  while the task releases the GIL now and then, as Python code and most
+  NumPy calls do); the points stored so far are kept, and a rerun computes
+  the rest.  Workers of an executor passed in are the executor's business.
+* **Faults.**  With ``on_error="record"`` (the default) a point whose task
+  raises an ``Exception`` is a failed point: its place in the results holds a
+  :class:`FailedPoint` (its ``params`` and the ``error`` as
+  ``"Type: message"``), the other points go on, whatever the executor, and
+  the failure is reported on the ``tps_solver.sweep`` logger (one record per
+  failed point and a summary at the end; no :mod:`warnings`).  The results
+  are a :class:`SweepResults`, a ``list`` whose ``failed`` attribute lists the
+  indices of the failed points.  Failed points are never stored, so a rerun
+  retries them.  Faults of the sweep itself (a result that cannot be stored,
+  a full disk, a callback that raises) are not points' failures: they stop
+  the sweep as with ``on_error="raise"``.  A worker process that dies (a
+  crash of native code) breaks a process pool: the points it could not
+  finish are failed points too.  A store file that is damaged (bit flips,
+  truncation: the SHA-256 seal or the zip structure no longer checks) or
+  that holds another point (copied or renamed over this one: its stored key,
+  or the key of its stored params, differs) is never returned: it is
+  reported on the ``tps_solver.sweep`` logger and the point is computed
+  again (and its file rewritten).
 * **Threads.**  With ``threads=n`` (default 1 when threadpoolctl is installed,
   ``pip install tps-solver[threads]``) every worker *process* caps its
   BLAS/OpenMP pools at ``n`` threads before running a task, and a serial sweep
@@ -55,7 +80,11 @@ import numbers
 import os
 import pickle
 import tempfile
+import threading
+import time
+import traceback
 import uuid
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -65,11 +94,13 @@ from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
 from tps_solver.core.progress import Progress, progress_state
 
-__all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted"]
+__all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted", "SweepResults", "FailedPoint"]
 
 _LOG = logging.getLogger("tps_solver.sweep")
 _MANIFEST = "sweep.json"
 _STORE_FORMAT = 2
+_ON_ERROR = ("record", "raise")
+_PARENT_POLL = 0.5                  # seconds between two checks of a default-pool worker that its parent lives
 
 
 class StorePoint(Bunch):
@@ -109,6 +140,85 @@ class SweepInterrupted(KeyboardInterrupt):
         self.results = results
         self.finished = finished
         self.store = store
+
+
+@dataclass(frozen=True, eq=True)
+class FailedPoint:
+    """A point of a :func:`sweep` whose task raised (``on_error="record"``); stands in for its result.
+
+    Failed points are not stored: a rerun of the sweep on the same store
+    retries them.  Indexing one raises a ``TypeError`` naming the point and
+    its error, so code that expected a result fails with the reason.
+
+    Attributes
+    ----------
+    params : dict
+        The keyword arguments of the failed call.
+    error : str
+        The exception raised, as ``"Type: message"``.
+    traceback : str
+        The formatted traceback (for a worker process, with the worker's
+        traceback as the cause); not part of ``repr`` or equality.
+
+    Examples
+    --------
+    >>> def inverse(x):
+    ...     return 1.0 / x
+    >>> res = sweep(inverse, {"x": [2.0, 0.0]}, executor="serial", progress=False)
+    >>> res
+    [0.5, FailedPoint(params={'x': 0.0}, error='ZeroDivisionError: float division by zero')]
+    >>> res.failed, res[1].error
+    ([1], 'ZeroDivisionError: float division by zero')
+    """
+
+    params: dict
+    error: str
+    traceback: str = field(default="", repr=False, compare=False)
+
+    @classmethod
+    def from_exception(cls, params, exc):
+        """The failed point ``params`` that raised ``exc`` (internal helper of :func:`sweep`).
+
+        Examples
+        --------
+        >>> FailedPoint.from_exception({"x": 1}, ValueError("bad x")).error
+        'ValueError: bad x'
+        """
+        text = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+        return cls(dict(params), f"{type(exc).__name__}: {exc}", text)
+
+    def __getitem__(self, item):
+        raise TypeError(f"the sweep point params = {self.params!r} failed ({self.error}) and has no result "
+                        f"to index with {item!r}; check results.failed, or pass on_error='raise' to sweep()")
+
+
+class SweepResults(list):
+    """The results of :func:`sweep`: a ``list`` in the order of the parameters, plus ``failed``.
+
+    Compares equal to a plain list of the same items.
+
+    Attributes
+    ----------
+    failed : list of int
+        Increasing indices of the points whose task raised; their items are
+        :class:`FailedPoint` (empty when every point succeeded).
+
+    Examples
+    --------
+    >>> def root(x):
+    ...     if x < 0:
+    ...         raise ValueError(f"x = {x} < 0")
+    ...     return x ** 0.5
+    >>> res = sweep(root, {"x": [4.0, -1.0, 9.0]}, executor="serial", progress=False)
+    >>> res.failed, res[0], res[2], res[1].error
+    ([1], 2.0, 3.0, 'ValueError: x = -1.0 < 0')
+    >>> sweep(root, {"x": [4.0]}, executor="serial", progress=False) == [2.0]
+    True
+    """
+
+    def __init__(self, items=()):
+        super().__init__(items)
+        self.failed = []
 
 
 # ------------------------------------------------------------------ parameters
@@ -327,6 +437,8 @@ def _read_point(path, key):
         rec = _load_point(name)
         if rec.key != key:
             raise ValueError(f"{name} holds the point {rec.key}, not {key} (a file copied over another)")
+        if param_key(rec.params) != key:
+            raise ValueError(f"{name} holds params whose key is {param_key(rec.params)}, not {key}")
     except ValueError as exc:     # a damaged or misplaced file: report it and recompute the point
         _LOG.warning("store file %s.npz refused (%s); recomputing the point", key, exc)
         return False, None
@@ -386,6 +498,22 @@ def _run(task, params, threads, caller_pid):
     return task(**params)
 
 
+def _watch_parent(parent_pid):
+    """Initializer of the default pool's workers: exit (``os._exit``) as soon as the parent is gone.
+
+    A daemon thread polls :func:`os.getppid` every half second; a killed
+    parent (``kill -9``) reparents the worker, which then exits instead of
+    running on as an orphan.
+    """
+    def watch():
+        while True:
+            if os.getppid() != parent_pid:
+                os._exit(1)
+            time.sleep(_PARENT_POLL)
+
+    threading.Thread(target=watch, name="tps_solver-sweep-parent-watch", daemon=True).start()
+
+
 def _limits(threads):
     """Context capping this process's BLAS threads (serial runs), or a no-op."""
     if threads is None:
@@ -420,7 +548,8 @@ def _resolve_executor(executor, max_workers):
         return None, False
     if executor is None:
         workers = (os.cpu_count() or 1) if max_workers is None else check_int(max_workers, "max_workers")
-        return cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")), True
+        return cf.ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                      initializer=_watch_parent, initargs=(os.getpid(),)), True
     if isinstance(executor, cf.Executor):
         return executor, False
     if callable(getattr(executor, "get_executor", None)) and callable(getattr(executor, "submit", None)):
@@ -430,7 +559,7 @@ def _resolve_executor(executor, max_workers):
 
 
 def sweep(task, params, executor=None, store=None, *, callback=None, progress=None, max_workers=None,
-          threads="auto"):
+          threads="auto", on_error="record"):
     """Evaluate ``task(**p)`` for every parameter dict ``p``, in parallel and resumably.
 
     Parameters
@@ -464,11 +593,20 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
     threads : "auto", int or None
         BLAS/OpenMP threads per task via threadpoolctl; ``"auto"``: 1 if
         threadpoolctl is installed, else unlimited; ``None``: leave alone.
+    on_error : {"record", "raise"}
+        What a task that raises an ``Exception`` does: ``"record"`` (default)
+        makes its point a :class:`FailedPoint` (not stored, logged on the
+        ``tps_solver.sweep`` logger) and the sweep goes on; ``"raise"``
+        stops the sweep and re-raises it (module docstring, "Interruption").
+        The progress bar counts failed points; ``callback`` is not called
+        for them.
 
     Returns
     -------
-    results : list
-        ``task(**p)`` for every ``p``, in the order of ``params``.
+    results : SweepResults
+        A ``list``: ``task(**p)`` for every ``p``, in the order of ``params``,
+        a :class:`FailedPoint` where the task raised; ``results.failed`` lists
+        those indices.
 
     Raises
     ------
@@ -476,9 +614,11 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
         On ``KeyboardInterrupt``; ``exc.results`` holds the partial results.
     ValueError
         On bad input: empty or non-finite parameters, a non-callable task, an
-        executor that is not one.
+        executor that is not one, an ``on_error`` that is not one of its values.
     Exception
-        Whatever the task raised, after the finished points were stored.
+        With ``on_error="raise"``, whatever the task raised, after the
+        finished points were stored; whatever the store or the callback
+        raised.
 
     Examples
     --------
@@ -497,6 +637,8 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
         raise ValueError(f"callback must be callable(done, total, params, result), got {type(callback).__name__}")
     if progress is not None and not isinstance(progress, (bool, np.bool_)):
         raise ValueError(f"progress must be True, False or None, got {progress!r}")
+    if not isinstance(on_error, str) or on_error not in _ON_ERROR:
+        raise ValueError(f"on_error must be one of {', '.join(map(repr, _ON_ERROR))}, got {on_error!r}")
     threads = _resolve_threads(threads)
     if max_workers is not None:
         check_int(max_workers, "max_workers")
@@ -512,7 +654,7 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
     path = _open_store(store, task) if store is not None else None
 
     n = len(points)
-    results = [None] * n
+    results = SweepResults([None] * n)
     finished = np.zeros(n, dtype=bool)
     positions = {}                                  # key -> indices (duplicates computed once)
     for i, k in enumerate(keys):
@@ -541,6 +683,23 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
                 callback(progress_state("sweep", int(finished.sum()), fraction=float(finished.sum()) / n, total=n,
                                         params=points[i], result=value))
 
+    def fail(k, exc):
+        idx = positions[k]
+        failure = FailedPoint.from_exception(points[idx[0]], exc)
+        _LOG.warning("sweep: the task failed at params = %r (%s); the point is not stored, a rerun retries it",
+                     failure.params, failure.error)
+        for i in idx:
+            results[i] = failure
+            bar.update()
+        results.failed = sorted(results.failed + idx)
+
+    def summary():
+        if results.failed:
+            where = f"; rerun sweep() on the store {str(path)!r} to retry them" if path else ""
+            _LOG.warning("sweep: %d of %d points failed (indices %s) and were not stored%s",
+                         len(results.failed), n, results.failed, where)
+        return results
+
     def interrupted(exc):
         done = int(finished.sum())
         where = f"; they are in the store {str(path)!r}, rerun sweep() to finish the rest" if path else ""
@@ -557,6 +716,9 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
                 except KeyboardInterrupt as exc:
                     raise interrupted(exc) from exc
                 except Exception as exc:
+                    if on_error == "record":
+                        fail(k, exc)
+                        continue
                     exc.add_note(f"sweep: the task failed at params = {p!r}; "
                                  f"{int(finished.sum())} of {n} finished points kept")
                     raise
@@ -564,7 +726,7 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
                     record(k, value)
                 except KeyboardInterrupt as exc:
                     raise interrupted(exc) from exc
-            return results
+            return summary()
         pid = os.getpid()
         futures = {ex.submit(_run, task, points[positions[k][0]], threads, pid): k for k in todo}
         pending = set(futures)
@@ -572,7 +734,14 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
             while pending:
                 done, pending = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
                 for fut in done:
-                    record(futures[fut], fut.result())
+                    if on_error == "record" and fut.cancelled():
+                        fail(futures[fut], cf.CancelledError("the executor cancelled the point"))
+                        continue
+                    error = fut.exception() if on_error == "record" else None
+                    if isinstance(error, Exception):
+                        fail(futures[fut], error)
+                    else:
+                        record(futures[fut], fut.result())
         except KeyboardInterrupt as exc:
             for fut in pending:
                 fut.cancel()
@@ -587,11 +756,11 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
             for fut in pending:
                 if fut.done() and not fut.cancelled() and fut.exception() is None:
                     record(futures[fut], fut.result())
-            failed = [futures[f] for f in futures if f.done() and not f.cancelled() and f.exception() is not None]
+            failed = [futures[f] for f in futures if f.done() and not f.cancelled() and f.exception() is exc]
             what = f"the point params = {points[positions[failed[0]][0]]!r} raised" if failed else "stopped"
             exc.add_note(f"sweep: {what}; {int(finished.sum())} of {n} finished points kept")
             raise
-        return results
+        return summary()
     finally:
         bar.close()
         if owned:
