@@ -37,6 +37,8 @@ def basin_point(Gamma, e, M, samples, model, cutoff, seed):
 
 
 def run(args):
+    import sys
+
     import numpy as np
 
     import tps_solver as tps
@@ -56,7 +58,11 @@ def run(args):
     executor = "serial" if args.serial else None
     results = tps.sweep(basin_point, params, executor=executor, store=args.store,
                         max_workers=args.workers, progress=True)
-    frac = np.array([r["flat_fraction"] for r in results]).reshape(len(es), len(gammas))
+    failed = list(getattr(results, "failed", []))
+    for i in failed:
+        print(f"  point {params[i]} failed: {results[i].error}", file=sys.stderr)
+    frac = np.array([np.nan if i in failed else r["flat_fraction"] for i, r in enumerate(results)]
+                    ).reshape(len(es), len(gammas))
     print(f"f/{args.M} basin fraction of the ball ({args.model} contact, {samples} samples per point)")
     print("  e \\ Gamma " + " ".join(f"{G:7.3f}" for G in gammas))
     for e, row in zip(es, frac):

@@ -568,7 +568,9 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     params = [dict(common, w0=float(a), zeta0=float(b)) for a, b in zip(w0, z0)]
     requested = n_samples
     try:
-        samples = sweep(_basin_sample, params, executor=executor, store=store, progress=progress)
+        # a sample that raises is a bug, not a fault of the sample (those are status 'failed'): raise it
+        samples = sweep(_basin_sample, params, executor=executor, store=store, progress=progress,
+                        on_error="raise")
         interrupted = False
     except SweepInterrupted as exc:
         # Ctrl-C: classify the samples that finished (status 5); the store keeps them for a rerun
