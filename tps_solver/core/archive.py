@@ -25,8 +25,9 @@ which imports every result module so that every codec is registered, is
 :func:`tps_solver.analyses.files.load` (``tps_solver.load``).
 
 **Validation on load.**  Every failure is a ``ValueError`` that names the file: not a
-file name, a directory, an empty, truncated, damaged (seal broken), pickled or foreign file,
-a newer format version, an unknown kind, a missing or mistyped field, and an inconsistent
+file name, a directory, a missing file (:class:`MissingFileError`, also a
+``FileNotFoundError``), an empty, truncated, damaged (seal broken), pickled or foreign
+file, a newer format version, an unknown kind, a missing or mistyped field, and an inconsistent
 or unphysical one (the type's ``validate``).  Files of format versions 0 and 1 (before the
 seal) are read by a type's ``legacy`` reader where it has one.
 
@@ -57,7 +58,8 @@ import numpy as np
 
 from tps_solver.core.bunch import Bunch
 
-__all__ = ["save", "load", "register", "registered", "npz_path", "Fields", "FORMAT", "FORMAT_VERSION"]
+__all__ = ["save", "load", "register", "registered", "npz_path", "Fields", "FORMAT", "FORMAT_VERSION",
+           "MissingFileError"]
 
 FORMAT = "tps_solver"
 #: Version written by :func:`save`; versions 0 and 1 (no seal) are read by a type's ``legacy`` reader.
@@ -66,6 +68,17 @@ _META = ("format", "format_version", "kind", "tree")
 _SEAL = b"tps_solver-sha256:"
 _SEAL_LEN = len(_SEAL) + 64
 _NAME = re.compile(r"^[A-Za-z0-9_]+$")
+
+
+class MissingFileError(ValueError, FileNotFoundError):
+    """A result file that does not exist: a ``ValueError`` (like every error of :func:`load`)
+    and a ``FileNotFoundError``.
+
+    Examples
+    --------
+    >>> issubclass(MissingFileError, ValueError), issubclass(MissingFileError, FileNotFoundError)
+    (True, True)
+    """
 
 
 class _Codec:
@@ -167,9 +180,14 @@ def npz_path(path):
 def _fspath(path):
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
         raise ValueError(f"path must be a file name (str or os.PathLike), got {path!r}")
-    path = os.fspath(path)
+    try:
+        path = os.fspath(path)
+    except TypeError as exc:
+        raise ValueError(f"path must be a file name (str or os.PathLike): {exc}") from None
     if not isinstance(path, str) or not path:
         raise ValueError(f"path must be a non-empty file name, got {path!r}")
+    if "\x00" in path:
+        raise ValueError(f"path must be a file name without NUL characters, got {path!r}")
     return path
 
 
@@ -477,8 +495,13 @@ def read_arrays(path):
     path = _fspath(path)
     if os.path.isdir(path):
         raise ValueError(f"{path} is a directory, not a tps_solver result file")
-    with open(path, "rb") as fh:
-        raw = fh.read()
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except FileNotFoundError:
+        raise MissingFileError(f"no such file: {path}") from None
+    except OSError as exc:
+        raise ValueError(f"{path} cannot be read: {exc.strerror or exc} [{type(exc).__name__}]") from None
     if not raw:
         raise ValueError(f"{path} cannot be read: the file is empty")
     sealed = False
@@ -517,7 +540,7 @@ def read_arrays(path):
         else:
             why = text
         raise ValueError(f"{path} cannot be read: {why}") from None
-    except (OSError, KeyError, IndexError, TypeError, NotImplementedError, RuntimeError, MemoryError) as exc:
+    except Exception as exc:        # noqa: BLE001 -- whatever NumPy or zipfile raise on a damaged file
         raise ValueError(f"{path} cannot be read: it is damaged or not an .npz archive "
                          f"[{type(exc).__name__}: {exc}]") from None
     out["\x00sealed"] = sealed
@@ -631,10 +654,10 @@ def load(path, kind=None):
 
     Raises
     ------
-    FileNotFoundError
-        If neither ``path`` nor ``path + ".npz"`` exists.
     ValueError
-        If ``path`` is not a file name, or a directory; if the file cannot be read
+        Every failure, naming the file and saying what is wrong.  If neither ``path`` nor
+        ``path + ".npz"`` exists (a :class:`MissingFileError`, also a ``FileNotFoundError``);
+        if ``path`` is not a file name, or a directory; if the file cannot be read
         (truncated, damaged, seal broken, pickled, not an ``.npz``), is not a tps_solver
         file, has a newer format version (named), holds an unknown or unexpected kind, or a
         missing, mistyped, inconsistent or unphysical field.
@@ -670,7 +693,21 @@ def load(path, kind=None):
     candidates = [name] if name.endswith(".npz") else [name, name + ".npz"]
     found = next((c for c in candidates if os.path.isfile(c)), None)
     if found is None:
-        raise FileNotFoundError(f"no such file: {' or '.join(candidates)}")
+        other = next((c for c in candidates if os.path.exists(c)), None)
+        if other is not None:
+            raise ValueError(f"{other} is not a regular file, not a tps_solver result file")
+        raise MissingFileError(f"no such file: {' or '.join(candidates)}")
+    try:
+        return _load_file(found, kind)
+    except ValueError:
+        raise
+    except Exception as exc:        # noqa: BLE001 -- a reader or a type's codec failed on this file
+        raise ValueError(f"{found} cannot be read: a stored field is damaged or inconsistent "
+                         f"[{type(exc).__name__}: {exc}]") from None
+
+
+def _load_file(found, kind):
+    """The object stored in the existing file ``found`` (see :func:`load`)."""
     data = read_arrays(found)
     sealed = data.pop("\x00sealed")
     if "format" not in data:
