@@ -19,7 +19,7 @@ import tps_solver as tps
 from tps_solver.core import archive
 from tps_solver.analyses.continuation import load_branch
 
-#: how many damaged files each fuzz test writes per result type (80: 720 damaged files, 1040 loads in all);
+#: how many damaged files each fuzz test writes per result type (80: 780 damaged files, 1080 loads in all);
 #: ``TPS_FILE_FUZZ=3000`` hunts longer (same seeds, more draws)
 N_FUZZ = int(os.environ.get("TPS_FILE_FUZZ", 80))
 #: filled by the fuzz tests: kind -> {"ValueError": n, "identical": n}; printed with ``pytest -s``
