@@ -7,7 +7,8 @@ A result file is a NumPy ``.npz`` archive read with ``allow_pickle=False``.  It 
 * ``tree``: a JSON text describing the structure of the stored object -- for every field
   its type (``float``, ``int``, ``bool``, ``complex``, ``str``, ``None``, a NumPy scalar of
   its exact dtype, an array, a list, tuple or dict of such, a nested bunch, a nested
-  registered object);
+  registered object), and for an array or NumPy scalar its exact dtype and shape, checked on
+  load (a file without these records, written earlier, is read without that check);
 * one array per leaf, named by its path (``w_hat``, ``flat.Gamma``,
   ``special_points.0.solution.tc``), holding the value exactly (same dtype, same bits);
 * a SHA-256 seal of every byte before it, written as the zip comment
@@ -201,6 +202,11 @@ def _join(path, name):
     return f"{path}.{name}" if path else str(name)
 
 
+def _dtype_tag(a):
+    """The exact dtype of the stored array ``a`` as text (recorded in the tree, checked on load)."""
+    return a.dtype.str if a.dtype.names is None else json.dumps(np.lib.format.dtype_to_descr(a.dtype))
+
+
 def _encode(value, path, arrays):
     """The tree node of ``value``; its arrays go into ``arrays`` under names derived from ``path``."""
     where = path or "the result"
@@ -217,13 +223,13 @@ def _encode(value, path, arrays):
         if value.dtype.hasobject:
             raise ValueError(f"{where}: a NumPy object scalar cannot be stored")
         arrays[path] = np.array(value)
-        return {"t": "scalar"}
+        return {"t": "scalar", "dtype": _dtype_tag(arrays[path])}
     if t is np.ndarray or t is np.recarray:
         if value.dtype.hasobject:
             raise ValueError(f"{where}: an array of Python objects cannot be stored (give it a numeric "
                              f"or string dtype)")
-        arrays[path] = np.array(value.view(np.ndarray) if t is np.recarray else value, copy=True)
-        return {"t": "recarray" if t is np.recarray else "array"}
+        arrays[path] = a = np.array(value.view(np.ndarray) if t is np.recarray else value, copy=True)
+        return {"t": "recarray" if t is np.recarray else "array", "dtype": _dtype_tag(a), "shape": list(a.shape)}
     if t in (list, tuple):
         return {"t": t.__name__, "items": [_encode(v, _join(path, i), arrays) for i, v in enumerate(value)]}
     if t is dict and all(isinstance(k, str) and _NAME.match(k) for k in value):
@@ -558,11 +564,19 @@ class _Reader:
         raise ValueError(f"{self.path}: {what} (field {where!r}, format version {self.version})"
                          if where else f"{self.path}: {what} (format version {self.version})")
 
-    def leaf(self, path, tag):
+    def leaf(self, path, tag, node):
         if path not in self.arrays:
             self.fail(path, f"the field {path!r} is missing")
         a = self.arrays[path]
         self.used.add(path)
+        want = node.get("dtype")
+        if want is not None and (not isinstance(a, np.ndarray) or _dtype_tag(a) != want):
+            self.fail(path, f"the field {path!r} must have dtype {want}, got "
+                            f"{a.dtype.str if isinstance(a, np.ndarray) else type(a).__name__}")
+        shape = node.get("shape")
+        if shape is not None and (not isinstance(shape, list) or list(a.shape) != shape):
+            want_shape = tuple(shape) if isinstance(shape, list) else shape
+            self.fail(path, f"the field {path!r} must have shape {want_shape}, got {a.shape}")
         kinds = {"bool": "b", "int": "iu", "float": "f", "complex": "c", "str": "U"}
         if tag in kinds:
             if a.shape != () or a.dtype.kind not in kinds[tag]:
@@ -586,7 +600,7 @@ class _Reader:
         if tag == "none":
             return None
         if tag in ("bool", "int", "float", "complex", "str", "scalar", "array", "recarray"):
-            return self.leaf(path, tag)
+            return self.leaf(path, tag, node)
         if tag in ("list", "tuple", "items"):
             items = node.get("items")
             if not isinstance(items, list):
