@@ -831,8 +831,12 @@ def _locate(problem, kind, y0, tau0, h, f0, tol, tol_special, max_corrector):
 def _validate_branch(f):
     k = f.array("parameter_values", "f", ndim=1, finite=True).size
     f.array("stable", "b", shape=(k,))
+    f.array("states", "f", shape=(k, None), finite=True)
+    f.array("multipliers", "fc", shape=(k, None))
     f.str("parameter")
     f.int("status")
+    if f.has("time"):
+        f.float("time")
 
 
 archive.register("Branch", Branch, validate=_validate_branch)

@@ -32,10 +32,10 @@ def load(path, kind=None):
 
     Raises
     ------
-    FileNotFoundError
-        If the file does not exist.
     ValueError
-        If ``path`` is not a file name or is a directory, or the file is truncated, damaged
+        Every failure, naming the file and saying what is wrong: the file does not exist
+        (:class:`tps_solver.core.archive.MissingFileError`, also a ``FileNotFoundError``),
+        ``path`` is not a file name or is a directory, or the file is truncated, damaged
         (its SHA-256 seal does not match), foreign, of a newer format version, of another
         kind than ``kind``, or holds a missing, mistyped, inconsistent or unphysical field.
 

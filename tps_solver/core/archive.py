@@ -7,7 +7,8 @@ A result file is a NumPy ``.npz`` archive read with ``allow_pickle=False``.  It 
 * ``tree``: a JSON text describing the structure of the stored object -- for every field
   its type (``float``, ``int``, ``bool``, ``complex``, ``str``, ``None``, a NumPy scalar of
   its exact dtype, an array, a list, tuple or dict of such, a nested bunch, a nested
-  registered object);
+  registered object), and for an array or NumPy scalar its exact dtype and shape, checked on
+  load (a file without these records, written earlier, is read without that check);
 * one array per leaf, named by its path (``w_hat``, ``flat.Gamma``,
   ``special_points.0.solution.tc``), holding the value exactly (same dtype, same bits);
 * a SHA-256 seal of every byte before it, written as the zip comment
@@ -25,8 +26,9 @@ which imports every result module so that every codec is registered, is
 :func:`tps_solver.analyses.files.load` (``tps_solver.load``).
 
 **Validation on load.**  Every failure is a ``ValueError`` that names the file: not a
-file name, a directory, an empty, truncated, damaged (seal broken), pickled or foreign file,
-a newer format version, an unknown kind, a missing or mistyped field, and an inconsistent
+file name, a directory, a missing file (:class:`MissingFileError`, also a
+``FileNotFoundError``), an empty, truncated, damaged (seal broken), pickled or foreign
+file, a newer format version, an unknown kind, a missing or mistyped field, and an inconsistent
 or unphysical one (the type's ``validate``).  Files of format versions 0 and 1 (before the
 seal) are read by a type's ``legacy`` reader where it has one.
 
@@ -57,7 +59,8 @@ import numpy as np
 
 from tps_solver.core.bunch import Bunch
 
-__all__ = ["save", "load", "register", "registered", "npz_path", "Fields", "FORMAT", "FORMAT_VERSION"]
+__all__ = ["save", "load", "register", "registered", "npz_path", "Fields", "FORMAT", "FORMAT_VERSION",
+           "MissingFileError"]
 
 FORMAT = "tps_solver"
 #: Version written by :func:`save`; versions 0 and 1 (no seal) are read by a type's ``legacy`` reader.
@@ -66,6 +69,17 @@ _META = ("format", "format_version", "kind", "tree")
 _SEAL = b"tps_solver-sha256:"
 _SEAL_LEN = len(_SEAL) + 64
 _NAME = re.compile(r"^[A-Za-z0-9_]+$")
+
+
+class MissingFileError(ValueError, FileNotFoundError):
+    """A result file that does not exist: a ``ValueError`` (like every error of :func:`load`)
+    and a ``FileNotFoundError``.
+
+    Examples
+    --------
+    >>> issubclass(MissingFileError, ValueError), issubclass(MissingFileError, FileNotFoundError)
+    (True, True)
+    """
 
 
 class _Codec:
@@ -167,9 +181,14 @@ def npz_path(path):
 def _fspath(path):
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
         raise ValueError(f"path must be a file name (str or os.PathLike), got {path!r}")
-    path = os.fspath(path)
+    try:
+        path = os.fspath(path)
+    except TypeError as exc:
+        raise ValueError(f"path must be a file name (str or os.PathLike): {exc}") from None
     if not isinstance(path, str) or not path:
         raise ValueError(f"path must be a non-empty file name, got {path!r}")
+    if "\x00" in path:
+        raise ValueError(f"path must be a file name without NUL characters, got {path!r}")
     return path
 
 
@@ -181,6 +200,11 @@ _SCALARS = {bool: ("bool", np.bool_), int: ("int", np.int64), float: ("float", n
 
 def _join(path, name):
     return f"{path}.{name}" if path else str(name)
+
+
+def _dtype_tag(a):
+    """The exact dtype of the stored array ``a`` as text (recorded in the tree, checked on load)."""
+    return a.dtype.str if a.dtype.names is None else json.dumps(np.lib.format.dtype_to_descr(a.dtype))
 
 
 def _encode(value, path, arrays):
@@ -199,13 +223,13 @@ def _encode(value, path, arrays):
         if value.dtype.hasobject:
             raise ValueError(f"{where}: a NumPy object scalar cannot be stored")
         arrays[path] = np.array(value)
-        return {"t": "scalar"}
+        return {"t": "scalar", "dtype": _dtype_tag(arrays[path])}
     if t is np.ndarray or t is np.recarray:
         if value.dtype.hasobject:
             raise ValueError(f"{where}: an array of Python objects cannot be stored (give it a numeric "
                              f"or string dtype)")
-        arrays[path] = np.array(value.view(np.ndarray) if t is np.recarray else value, copy=True)
-        return {"t": "recarray" if t is np.recarray else "array"}
+        arrays[path] = a = np.array(value.view(np.ndarray) if t is np.recarray else value, copy=True)
+        return {"t": "recarray" if t is np.recarray else "array", "dtype": _dtype_tag(a), "shape": list(a.shape)}
     if t in (list, tuple):
         return {"t": t.__name__, "items": [_encode(v, _join(path, i), arrays) for i, v in enumerate(value)]}
     if t is dict and all(isinstance(k, str) and _NAME.match(k) for k in value):
@@ -477,8 +501,13 @@ def read_arrays(path):
     path = _fspath(path)
     if os.path.isdir(path):
         raise ValueError(f"{path} is a directory, not a tps_solver result file")
-    with open(path, "rb") as fh:
-        raw = fh.read()
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except FileNotFoundError:
+        raise MissingFileError(f"no such file: {path}") from None
+    except OSError as exc:
+        raise ValueError(f"{path} cannot be read: {exc.strerror or exc} [{type(exc).__name__}]") from None
     if not raw:
         raise ValueError(f"{path} cannot be read: the file is empty")
     sealed = False
@@ -517,7 +546,7 @@ def read_arrays(path):
         else:
             why = text
         raise ValueError(f"{path} cannot be read: {why}") from None
-    except (OSError, KeyError, IndexError, TypeError, NotImplementedError, RuntimeError, MemoryError) as exc:
+    except Exception as exc:        # noqa: BLE001 -- whatever NumPy or zipfile raise on a damaged file
         raise ValueError(f"{path} cannot be read: it is damaged or not an .npz archive "
                          f"[{type(exc).__name__}: {exc}]") from None
     out["\x00sealed"] = sealed
@@ -535,11 +564,19 @@ class _Reader:
         raise ValueError(f"{self.path}: {what} (field {where!r}, format version {self.version})"
                          if where else f"{self.path}: {what} (format version {self.version})")
 
-    def leaf(self, path, tag):
+    def leaf(self, path, tag, node):
         if path not in self.arrays:
             self.fail(path, f"the field {path!r} is missing")
         a = self.arrays[path]
         self.used.add(path)
+        want = node.get("dtype")
+        if want is not None and (not isinstance(a, np.ndarray) or _dtype_tag(a) != want):
+            self.fail(path, f"the field {path!r} must have dtype {want}, got "
+                            f"{a.dtype.str if isinstance(a, np.ndarray) else type(a).__name__}")
+        shape = node.get("shape")
+        if shape is not None and (not isinstance(shape, list) or list(a.shape) != shape):
+            want_shape = tuple(shape) if isinstance(shape, list) else shape
+            self.fail(path, f"the field {path!r} must have shape {want_shape}, got {a.shape}")
         kinds = {"bool": "b", "int": "iu", "float": "f", "complex": "c", "str": "U"}
         if tag in kinds:
             if a.shape != () or a.dtype.kind not in kinds[tag]:
@@ -563,7 +600,7 @@ class _Reader:
         if tag == "none":
             return None
         if tag in ("bool", "int", "float", "complex", "str", "scalar", "array", "recarray"):
-            return self.leaf(path, tag)
+            return self.leaf(path, tag, node)
         if tag in ("list", "tuple", "items"):
             items = node.get("items")
             if not isinstance(items, list):
@@ -631,10 +668,10 @@ def load(path, kind=None):
 
     Raises
     ------
-    FileNotFoundError
-        If neither ``path`` nor ``path + ".npz"`` exists.
     ValueError
-        If ``path`` is not a file name, or a directory; if the file cannot be read
+        Every failure, naming the file and saying what is wrong.  If neither ``path`` nor
+        ``path + ".npz"`` exists (a :class:`MissingFileError`, also a ``FileNotFoundError``);
+        if ``path`` is not a file name, or a directory; if the file cannot be read
         (truncated, damaged, seal broken, pickled, not an ``.npz``), is not a tps_solver
         file, has a newer format version (named), holds an unknown or unexpected kind, or a
         missing, mistyped, inconsistent or unphysical field.
@@ -670,7 +707,21 @@ def load(path, kind=None):
     candidates = [name] if name.endswith(".npz") else [name, name + ".npz"]
     found = next((c for c in candidates if os.path.isfile(c)), None)
     if found is None:
-        raise FileNotFoundError(f"no such file: {' or '.join(candidates)}")
+        other = next((c for c in candidates if os.path.exists(c)), None)
+        if other is not None:
+            raise ValueError(f"{other} is not a regular file, not a tps_solver result file")
+        raise MissingFileError(f"no such file: {' or '.join(candidates)}")
+    try:
+        return _load_file(found, kind)
+    except ValueError:
+        raise
+    except Exception as exc:        # noqa: BLE001 -- a reader or a type's codec failed on this file
+        raise ValueError(f"{found} cannot be read: a stored field is damaged or inconsistent "
+                         f"[{type(exc).__name__}: {exc}]") from None
+
+
+def _load_file(found, kind):
+    """The object stored in the existing file ``found`` (see :func:`load`)."""
     data = read_arrays(found)
     sealed = data.pop("\x00sealed")
     if "format" not in data:

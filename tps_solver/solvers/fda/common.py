@@ -123,8 +123,8 @@ def _validate_simulation(f):
     f.array("zeta", "f", shape=(n,), finite=True)
     f.array("stuck", "b", shape=(n,))
     k = f.array("t_eval", "f", ndim=1, finite=True).size
-    f.array("w_eval", "f", shape=(k, n))
-    f.array("zeta_eval", "f", shape=(k, n))
+    f.array("w_eval", "f", shape=(k, n), finite=True)
+    f.array("zeta_eval", "f", shape=(k, n), finite=True)
     status = f.int("status")
     if status not in SIMULATION_STATUS:
         f.fail(f"the field 'status' must be a code of SIMULATION_STATUS, got {status}")
