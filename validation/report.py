@@ -282,15 +282,21 @@ def build_report(path=REPORT_PATH, sections_dir=None, date=None, notes=None):
     Returns
     -------
     path : str
+        The file is left untouched (date included) when only its date, machine and versions
+        lines would change, so re-assembling an unchanged report does not modify a tracked file.
 
     Examples
     --------
     >>> import tempfile, os
     >>> d = tempfile.mkdtemp()
     >>> _ = write_section("speed", "## Speed\\n\\n| a |\\n|---|\\n| 1 |", d)
-    >>> out = build_report(os.path.join(d, "R.md"), sections_dir=d)
+    >>> out = build_report(os.path.join(tempfile.mkdtemp(), "R.md"), sections_dir=d)
     >>> "| 1 |" in open(out).read()
     True
+    >>> before = os.stat(out).st_mtime_ns
+    >>> _ = build_report(out, sections_dir=d, date=datetime.datetime(2030, 1, 1))
+    >>> os.stat(out).st_mtime_ns == before, "2030" in open(out).read()
+    (True, False)
     """
     present, missing = ordered_sections(sections_dir)
     date = date or datetime.datetime.now(datetime.timezone.utc)
@@ -335,10 +341,29 @@ def build_report(path=REPORT_PATH, sections_dir=None, date=None, notes=None):
         for stem, title in missing:
             out.append(f"- {title} (`validation/sections/{stem}.md` does not exist)")
         out.append("")
+    text = "\n".join(out)
+    if _same_but_header(path, text):
+        return path                 # the sections are unchanged: keep the file (and its date) as it is
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(path, "w", encoding="utf-8") as fh:
-        fh.write("\n".join(out))
+        fh.write(text)
     return path
+
+
+_HEADER_STAMPS = ("- date: ", "- machine: ", "- versions: ")
+
+
+def _same_but_header(path, text):
+    """True if ``path`` holds ``text`` up to the date, machine and versions lines of the header."""
+    if not os.path.isfile(path):
+        return False
+    with open(path, encoding="utf-8") as fh:
+        old = fh.read()
+
+    def strip(t):
+        return [line for line in t.splitlines() if not line.startswith(_HEADER_STAMPS)]
+
+    return strip(old) == strip(text)
 
 
 def main():
