@@ -16,6 +16,11 @@ import sys, json, time
 import numpy as np
 import tps_solver as tps
 
+def slow_square(x):
+    time.sleep(0.05)
+    return x * x
+
+
 def run(case):
     fl = tps.FlatLayer(2.5, e=0.45)
     if case == "simulate":
@@ -39,6 +44,15 @@ def run(case):
         print("ready", flush=True)
         r = tps.lattice_kink(lat, Gamma=4.1, e=0.0, periods=0, max_iter=500, multipliers=False)
         return dict(status=r.status, message=r.message)
+    if case == "sweep":
+        from tps_solver.analyses.sweep import SweepInterrupted
+        print("ready", flush=True)
+        try:
+            tps.sweep(slow_square, {"x": list(range(40))}, executor="serial", progress=False)
+        except SweepInterrupted as exc:          # the sweep's documented answer: the results so far
+            done = int(exc.finished.sum())
+            return dict(status=5 if 0 < done < 40 else -1, message=f"interrupted: {exc}")
+        return dict(status=0, message="finished")
     if case == "tps":
         print("ready", flush=True)
         r = tps.solve_oscillon(n_harmonics=60, n_nodes=40, r_max=800.0, scheme="picard", max_iter=100000,
@@ -63,7 +77,7 @@ except Exception as exc:
 print("RESULT " + json.dumps(out), flush=True)
 '''
 
-CASES = ["simulate", "check_stability", "shooting", "find_periodic_orbit", "tps", "branch", "basins"]
+CASES = ["simulate", "check_stability", "shooting", "find_periodic_orbit", "tps", "branch", "basins", "sweep"]
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGINT to a subprocess is POSIX")
