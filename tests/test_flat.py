@@ -251,8 +251,8 @@ def test_stability_window_endpoints(e, M):
     # lower end = the fold s pi M: no orbit below, a multiplier -> +1 like sqrt(Gamma - low) above
     s = (1 - e) / (1 + e)
     assert low == pytest.approx(s * math.pi * M, rel=1e-15)
-    with pytest.raises(ValueError, match="Gamma"):
-        FlatLayer(low * (1 - 1e-9), M, e=e)
+    with pytest.raises(ValueError, match="Gamma"):      # the single-bounce orbit (auto falls back)
+        FlatLayer(low * (1 - 1e-9), M, e=e, pattern="bounce")
     deltas = np.array([1e-6, 1e-8, 1e-10])
     gaps = []
     for d in deltas:
@@ -334,7 +334,7 @@ def test_admissibility_verdict_matches_dense_sampling(e, M, Gamma, branch):
     if c > 1:
         event("no orbit")
         with pytest.raises(ValueError, match="Gamma"):
-            FlatLayer(Gamma, M, e=e, branch=branch)
+            FlatLayer(Gamma, M, e=e, branch=branch, pattern="bounce")
         return
     t0 = math.acos(c) if branch == "stable" else -math.acos(c)
     W0 = T / (2 * Gamma) - c
@@ -345,7 +345,7 @@ def test_admissibility_verdict_matches_dense_sampling(e, M, Gamma, branch):
         FlatLayer(Gamma, M, e=e, branch=branch)
     else:
         with pytest.raises(ValueError, match="touches the plate"):
-            FlatLayer(Gamma, M, e=e, branch=branch)
+            FlatLayer(Gamma, M, e=e, branch=branch, pattern="bounce")
 
 
 # ----------------------------------------------------------------------------- bad input

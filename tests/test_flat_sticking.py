@@ -127,10 +127,14 @@ def test_chatter_tail_bound_holds_and_is_not_vacuous():
     assert g(impacts[0], G) > 0 and all(g(t, G) < 0 for t in impacts[1:])
 
 
-def test_auto_with_e_positive_keeps_the_bounce_semantics():
-    # no single-bounce orbit at (4.4, 0.1): auto raises as before, and says that 'stick' exists
+def test_auto_with_e_positive_falls_back_to_the_orbit_that_exists():
+    # no single-bounce orbit at (4.4, 0.1): auto takes the sticking orbit that patterns() lists
+    # (it raised here before), and .pattern says which it chose; pattern="bounce" still raises
+    assert tps.FlatLayer.patterns(4.4, 2, 0.1)["stick"][0]
+    fl = tps.FlatLayer(4.4, 2, e=0.1)
+    assert fl.pattern == "stick" and fl.t0 == tps.FlatLayer(4.4, 2, e=0.1, pattern="stick").t0
     with pytest.raises(ValueError, match=r"Gamma is too small.*patterns that exist.*'stick'"):
-        tps.FlatLayer(4.4, 2, e=0.1)
+        tps.FlatLayer(4.4, 2, e=0.1, pattern="bounce")
     fl = tps.FlatLayer(2.5, e=0.45)          # M defaults to 2; the bounce orbit as before
     assert fl.M == 2 and fl.pattern == "bounce" and fl.events == [(fl.t0, "impact")]
     assert fl.contact_sequence == "B"

@@ -65,3 +65,13 @@ def test_unbounded_sizes_are_refused_by_name(call, name):
 def test_contradictory_or_loose_options_are_refused_by_name(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+@pytest.mark.slow
+def test_lattice_kink_finds_the_kink_whose_far_field_sticks_at_e_positive():
+    """Gamma = 4.5, e = 0.1 has no single-bounce flat layer; the far field is the sticking orbit
+    (FlatLayer's "auto"), and the kink exists there (lattice_kink used to fail)."""
+    lat = tps.Lattice.planar(n_nodes=21, length=40.0)
+    orb = tps.lattice_kink(lat, Gamma=4.5, e=0.1, periods=10, max_iter=40, multipliers=False)
+    assert orb.converged and orb.localized and orb.residual <= 1e-10
+    assert orb.flat.pattern == "stick"

@@ -119,7 +119,7 @@ def cases(es=(0.45,), Ms=(2,), fractions=(0.5,), branches=("stable", "unstable")
                 Gamma = round(low + f * (high - low), 6)
                 for branch in branches:
                     try:
-                        grid.append(FlatLayer(Gamma, M, e=e, branch=branch))
+                        grid.append(FlatLayer(Gamma, M, e=e, branch=branch, pattern="bounce"))
                     except ValueError as exc:
                         skipped.append(dict(Gamma=Gamma, e=e, M=M, branch=branch, reason=str(exc)))
     return grid, skipped

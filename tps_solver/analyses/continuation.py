@@ -355,7 +355,7 @@ class _CycleProblem:
         lat = self.lattice
         scaled = Lattice(np.asarray(lat.nodes) * (h / self.h0), lat.geometry, lat.boundary, grid=lat.grid)
         try:
-            flat = FlatLayer(G, self.M, e=e)
+            flat = FlatLayer(G, self.M, e=e, pattern="bounce")
         except ValueError as exc:
             raise _Refused(str(exc)) from None
         prob = CycleProblem(scaled, flat, 1.0)

@@ -151,12 +151,12 @@ class FlatLayer:
           (``e = 0``) and rebounds (``e > 0``) may come before;
         * ``"touch"`` (``e = 0`` only): touch-and-go contacts only, no stick;
         * ``"auto"`` (default): ``"bounce"`` where it exists and is
-          admissible, exactly as before.  For ``e = 0`` only, where it does
-          not, the ``"stick"`` orbit if it exists, else a stable ``"touch"``
-          orbit.  For ``e > 0`` "auto" never falls back (it raises as the
-          single-bounce constructor always did, so code that enumerates
-          bounce orbits by catching ``ValueError`` keeps working); ask for
-          ``pattern="stick"`` explicitly.
+          admissible.  Where it does not (and ``t0`` is not given, ``branch``
+          is ``"stable"``), the orbit that :meth:`patterns` lists: the
+          ``"stick"`` orbit if it exists, else (``e = 0``) a stable ``"touch"``
+          orbit; :attr:`pattern` says which was chosen.  Code that needs the
+          single bounce (the single-contact TPS, the soft flat orbit) asks for
+          ``pattern="bounce"``, which raises where it does not exist.
 
     Attributes
     ----------
@@ -221,7 +221,9 @@ class FlatLayer:
         try:
             self._init_bounce(Gamma, M, e, t0, branch)
         except _NoBounceOrbit as exc:
-            if pattern == "auto" and t0 is None and e == 0.0:
+            if pattern == "auto" and t0 is None and e is not None and branch == "stable":
+                # no single-bounce orbit: the orbit with a rest on the plate that patterns() lists
+                # (.pattern says which was chosen)
                 for alt in ("stick", "touch"):
                     orbit, _ = _contact_orbit(Gamma, M, e, alt, "stable")
                     if orbit is not None:

@@ -126,7 +126,7 @@ class SoftFlatOrbit:
     """
 
     def __init__(self, Gamma, M, e, cutoff, branch="stable"):
-        hard = FlatLayer(Gamma, M, e=e, branch=branch)
+        hard = FlatLayer(Gamma, M, e=e, branch=branch, pattern="bounce")
         self.Gamma, self.M, self.e = hard.Gamma, hard.M, hard.e
         self.tau_c, self.omega0_sq, self.beta = soft_contact_parameters(self.e, cutoff)
         self.cutoff = float(cutoff)
