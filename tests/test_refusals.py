@@ -61,6 +61,8 @@ def test_unbounded_sizes_are_refused_by_name(call, name):
      "multipliers must be True or False"),
     (lambda: tps.solve_stick_lattice(tps.Lattice.planar(n_nodes=9, length=40.0), 4.1, w0=np.zeros(9)),
      "w0 and zeta0 must be given together"),
+    (lambda: tps.lattice_kink(tps.Lattice.planar(n_nodes=5, length=4.0), t_start=np.nan),
+     "t_start must be a finite real number"),
 ])
 def test_contradictory_or_loose_options_are_refused_by_name(call, match):
     with pytest.raises(ValueError, match=match):
@@ -75,3 +77,17 @@ def test_lattice_kink_finds_the_kink_whose_far_field_sticks_at_e_positive():
     orb = tps.lattice_kink(lat, Gamma=4.5, e=0.1, periods=10, max_iter=40, multipliers=False)
     assert orb.converged and orb.localized and orb.residual <= 1e-10
     assert orb.flat.pattern == "stick"
+
+
+def test_shooting_probes_one_period_and_refuses_a_newton_step_out_of_reach():
+    """The first period map is timed; a Newton step of krylov_dim + 2 maps beyond the limit is refused."""
+    lat = tps.Lattice.planar(n_nodes=8, length=140.0)
+    old = costs.set_limits(time=1e-4)
+    try:
+        with pytest.raises(ValueError, match=r"lattice.n_nodes = 8 is out of reach for find_periodic_orbit: "
+                                             r"estimated run time .* \(one period map took"):
+            tps.find_periodic_orbit(lat, section="fixed", t_start=1.0, multipliers=False)
+    finally:
+        costs.set_limits(**old)
+    orb = tps.find_periodic_orbit(lat, section="fixed", t_start=1.0, multipliers=False)   # within the limit
+    assert orb.converged

@@ -35,7 +35,7 @@ oscillon's core).
 """
 import numpy as np
 
-from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive
+from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive, check_real
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.model.flat import FlatLayer
 from tps_solver.model.soft_flat import SoftFlatOrbit
@@ -229,7 +229,7 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
     pattern = check_choice(pattern, "pattern", ("auto", "bounce", "stick", "touch"))
     width = check_nonnegative(width, "width")
     flat = _far_field(Gamma, M, e, cutoff, pattern)
-    t_start = _start_time(flat) if t_start is None else float(t_start)
+    t_start = _start_time(flat) if t_start is None else check_real(t_start, "t_start")
     state = kink_state(lattice, flat, t_start, width=width)
     return _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
                              simulate_kw, shooting_kw, callback)
@@ -282,7 +282,7 @@ def lattice_oscillon(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, core_radius
         raise ValueError(f"core_radius must lie inside the lattice, 0 < core_radius < {r_max:g}, "
                          f"got {core_radius!r}")
     flat = _far_field(Gamma, M, e, cutoff, pattern)
-    t_start = _start_time(flat) if t_start is None else float(t_start)
+    t_start = _start_time(flat) if t_start is None else check_real(t_start, "t_start")
     state = oscillon_state(lattice, flat, t_start, r_core=core_radius, width=width)
     return _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
                              simulate_kw, shooting_kw, callback)

@@ -66,6 +66,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_bool, check_choice, check_int, check_positive, check_real, check_restitution
+from tps_solver.core.costs import check_cost
 from tps_solver.core.newton import newton
 from tps_solver.core.progress import progress_state
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
@@ -622,7 +623,17 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
             callback(progress_state("shooting", state.iteration, residual=state.residual, x=state.x))
 
     try:
+        tic = time.perf_counter()
         F0, Px0, extra0 = pm.residual(x)
+        if max_iter > 0 and method != "soft":
+            # the first period map is the probe of the cost: one Newton step needs up to
+            # krylov_dim + 1 more of them (and the line search one); refuse if that is out of reach
+            per_map = time.perf_counter() - tic
+            products = min(krylov_dim, 2 * m) + 2
+            check_cost("find_periodic_orbit", "lattice.n_nodes", n, 8.0 * (krylov_dim + 2) * 2 * m + 1e6,
+                       products * per_map,
+                       hint=f"one period map took {per_map:.3g} s, a Newton step takes up to {products} of "
+                            f"them; use a coarser lattice, a smaller krylov_dim, or the soft contact")
         history.append(pm.error(F0, (Px0, extra0)))
         if callback is not None:
             callback(progress_state("shooting", 0, residual=history[-1], x=x))
