@@ -91,3 +91,13 @@ def test_shooting_probes_one_period_and_refuses_a_newton_step_out_of_reach():
         costs.set_limits(**old)
     orb = tps.find_periodic_orbit(lat, section="fixed", t_start=1.0, multipliers=False)   # within the limit
     assert orb.converged
+
+
+def test_the_impact_and_stick_tps_refuses_a_dense_newton_step_out_of_reach():
+    old = costs.set_limits(time=0.5)
+    try:
+        with pytest.raises(ValueError, match=r"lattice.n_nodes = 200 is out of reach for the impact-and-stick "
+                                             r"TPS: estimated run time .* 1800 unknowns"):
+            tps.solve_stick_flat(Gamma=4.1, n_nodes=200, length=400.0)
+    finally:
+        costs.set_limits(**old)

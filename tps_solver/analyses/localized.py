@@ -449,8 +449,7 @@ def front_width(orbit, n_samples=512, instant="far_field_tops", return_times=Fal
     instant = check_choice(instant, "instant", ("far_field_tops", "lower_far_field_top"))
     lattice = getattr(orbit, "lattice", None)
     nodes = lattice.nodes if lattice is not None else getattr(orbit, "nodes", None)
-    if nodes is None or not hasattr(orbit, "height") or not hasattr(orbit, "period") or (
-            lattice is not None and not hasattr(orbit, "t_start")):
+    if nodes is None or not hasattr(orbit, "height") or not hasattr(orbit, "period"):
         raise ValueError(f"orbit must be a kink on a lattice (with lattice or nodes, height, period), "
                          f"got {type(orbit).__name__}: a flat layer has no front")
     x = np.asarray(nodes, dtype=float)

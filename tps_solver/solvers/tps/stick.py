@@ -332,6 +332,7 @@ def _solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, 
                    n_harmonics):
     start = time.perf_counter()
     problem = StickProblem(modal, pattern, Gamma, e, n_basis, n_quad)
+    _check_newton_cost(problem, len(lattice_nodes))
     x, status, message, nit, history = _newton(problem, problem.initial(), tol, max_iter)
     solve_time = time.perf_counter() - start
     t, tau_s, J, coef = problem.unpack(x)
@@ -357,6 +358,17 @@ def _solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, 
     sol.time = time.perf_counter() - start
     sol.solve_time = solve_time
     return sol
+
+
+def _check_newton_cost(problem, n_nodes):
+    """Refuse a pattern whose dense Newton step is out of reach: the Jacobian, its LU and the
+    request matrices (about 4 float arrays of N x N for N unknowns), a residual of at least
+    5e-7 N^2 s (measured: 0.23 s at N = 634, 3.0 s at N = 1633) and the LU, N^3/3 flops."""
+    N = float(problem.n_unknowns)
+    check_cost("the impact-and-stick TPS", "lattice.n_nodes", n_nodes, 4 * 8.0 * N * N + 1e6,
+               2 * 5e-7 * N * N + N ** 3 / 3 / 5e9,
+               hint=f"the contact pattern has {int(N)} unknowns and the Newton step is dense; use a coarser "
+                    "lattice, or shooting (find_periodic_orbit) for this one")
 
 
 def _check_harmonics_cost(N, n):
