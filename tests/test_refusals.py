@@ -109,3 +109,20 @@ def test_the_fault_battery_is_all_good():
 
     rows = main()
     assert [r[0] for r in rows if r[1] != "good"] == []
+
+
+def test_the_impact_and_stick_tps_reports_progress_and_stops_on_ctrl_c():
+    lat = tps.Lattice.planar(n_nodes=9, length=40.0)
+    seen = []
+    sol = tps.solve_stick_lattice(lat, 4.1, 2, 0.0, periods=20, n_basis=6, tol=1e-10,
+                                  callback=lambda s: seen.append((s.stage, s.iteration)))
+    assert sol.converged
+    newton_steps = [k for stage, k in seen if stage == "newton"]
+    assert newton_steps == list(range(1, sol.nit + 1))
+
+    def stop(state):
+        if state.stage == "newton":
+            raise KeyboardInterrupt
+
+    cut = tps.solve_stick_lattice(lat, 4.1, 2, 0.0, periods=20, n_basis=6, tol=1e-14, shoot=False, callback=stop)
+    assert cut.status == 5 and not cut.converged and "interrupted" in cut.message

@@ -228,7 +228,7 @@ class StickSolution(PeriodicOrbit):
         return self._eval_at(nodes, times, integral).reshape(t.size, n)
 
 
-def _newton(problem, x, tol, max_iter):
+def _newton(problem, x, tol, max_iter, callback=None):
     """The one Newton engine (:func:`tps_solver.core.newton.newton`) with the dense Jacobian
     reused as a chord while it contracts by 10 per step, after a least-squares start of the
     linear unknowns."""
@@ -245,7 +245,10 @@ def _newton(problem, x, tol, max_iter):
         F_lin = problem.residual(x_lin)[0]
         if np.max(np.abs(F_lin)) < np.max(np.abs(F)):
             x = x_lin
-    out = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", chord=0.1, min_step=1.0 / 256)
+    out = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", chord=0.1, min_step=1.0 / 256,
+                 callback=callback)
+    if out.status == 5:
+        out.message += "; the fields hold the last accepted iterate"
     message = out.message
     if out.status == 2:
         message += "; try a better initial pattern (a longer FDA run) or more reaction terms (n_basis)"
@@ -329,11 +332,11 @@ def _checks(sol, problem, x):
 
 
 def _solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
-                   n_harmonics):
+                   n_harmonics, callback=None):
     start = time.perf_counter()
     problem = StickProblem(modal, pattern, Gamma, e, n_basis, n_quad)
     _check_newton_cost(problem, len(lattice_nodes))
-    x, status, message, nit, history = _newton(problem, problem.initial(), tol, max_iter)
+    x, status, message, nit, history = _newton(problem, problem.initial(), tol, max_iter, callback)
     solve_time = time.perf_counter() - start
     t, tau_s, J, coef = problem.unpack(x)
     tau_full = np.full(problem.C, np.nan)
@@ -462,7 +465,7 @@ def solve_stick_flat(Gamma=4.1, M=2, e=0.0, n_harmonics=32, *, n_nodes=1, length
 
 def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None, zeta0=None,
                         t_start=None, periods=20, n_basis=8, n_quad=16, tol=1e-10, max_iter=15,
-                        n_harmonics=32, refresh=1, shoot=True):
+                        n_harmonics=32, refresh=1, shoot=True, callback=None):
     r"""Periodic orbit with impact-and-stick contacts on a Neumann FDA lattice.
 
     Parameters
@@ -496,6 +499,10 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     refresh : int, keyword-only
         If Newton fails, re-read the pattern from a 3-period FDA run started on the last
         iterate and solve again, up to this many times.
+    callback : callable, optional, keyword-only
+        ``callback(state)`` after every Newton step of the TPS (a
+        :class:`~tps_solver.core.progress.ProgressState` of stage ``"newton"`` with
+        ``iteration``, ``residual`` and ``x``); also given to the shooting.
     shoot : bool, keyword-only
         Without ``pattern``: converge the FDA run's final state to a periodic orbit by
         shooting (:func:`tps_solver.find_periodic_orbit`) and read the pattern from that
@@ -546,7 +553,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
         source = f"FDA run of {periods} periods (exact integrator)"
         if shoot:
             orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, guess=run, max_iter=80,
-                                        multipliers=False)
+                                        multipliers=False, callback=callback)
         if orbit is not None and orbit.converged:
             pattern = pattern_from_orbit(orbit)
             source += f", then shooting (residual {orbit.residual:.1e})"
@@ -574,13 +581,13 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
         source = "user pattern"
     modal = ModalBasis(lattice, period=T)
     sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
-                         max_iter, n_harmonics)
+                         max_iter, n_harmonics, callback)
     sol.fda = run
     sol.orbit = orbit
     sol.lattice = lattice
     refresh = check_int(refresh, "refresh", minimum=0)
     for k in range(refresh):
-        if sol.converged:
+        if sol.converged or sol.status == 5:
             break
         # no solution with this pattern near the start: re-read the pattern from the FDA
         # started on the last iterate (the transient's pattern may differ from the orbit's)
@@ -593,7 +600,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
             break
         source += f"; pattern re-read from an FDA run on the last iterate ({k + 1})"
         sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
-                             max_iter, n_harmonics)
+                             max_iter, n_harmonics, callback)
         sol.fda = run
         sol.orbit = orbit
         sol.lattice = lattice
