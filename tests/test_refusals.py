@@ -126,3 +126,18 @@ def test_the_impact_and_stick_tps_reports_progress_and_stops_on_ctrl_c():
 
     cut = tps.solve_stick_lattice(lat, 4.1, 2, 0.0, periods=20, n_basis=6, tol=1e-14, shoot=False, callback=stop)
     assert cut.status == 5 and not cut.converged and "interrupted" in cut.message
+
+
+def test_lattice_kink_times_its_first_settling_period_and_reports_both_stages():
+    lat = tps.Lattice.planar(n_nodes=6, length=40.0)
+    old = costs.set_limits(time=0.5)         # above simulate's a-priori bound, below the measured pace
+    try:
+        with pytest.raises(ValueError, match=r"periods = 400 is out of reach for lattice_kink: .* \(the first "):
+            tps.lattice_kink(lat, Gamma=4.1, e=0.0, periods=400)
+    finally:
+        costs.set_limits(**old)
+    stages = []
+    orb = tps.lattice_kink(lat, Gamma=4.1, e=0.0, periods=4, multipliers=False,
+                           callback=lambda s: stages.append(s.stage))
+    assert orb.converged and {"simulate", "shooting"} <= set(stages)
+    assert stages.index("shooting") > max(i for i, s in enumerate(stages) if s == "simulate")

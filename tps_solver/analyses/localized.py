@@ -33,9 +33,12 @@ message says so.
 :func:`interface_position` where a profile crosses a level (the radius of an
 oscillon's core).
 """
+import time
+
 import numpy as np
 
 from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive, check_real
+from tps_solver.core.costs import check_cost
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.model.flat import FlatLayer
 from tps_solver.model.soft_flat import SoftFlatOrbit
@@ -115,8 +118,22 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
     note = ""
     guess, t_guess = (w0, z0), t_start
     if periods > 0:
+        # the first settling period is the probe of the cost: the run is refused when its
+        # measured pace puts all of them beyond the time limit; the states go on to ``callback``
+        clock, probed = time.perf_counter(), [False]
+
+        def settle(state):
+            if not probed[0] and state.fraction * periods >= 1.0 and state.fraction < 1.0:
+                probed[0] = True
+                elapsed = time.perf_counter() - clock
+                check_cost("lattice_kink", "periods", periods, 1e6, elapsed / state.fraction,
+                           hint=f"the first {state.fraction * periods:.3g} settling periods took {elapsed:.3g} s "
+                                f"on {lattice.n_nodes} nodes; settle fewer periods or use a coarser lattice")
+            if callback is not None:
+                callback(state)
+
         run = simulate(lattice, Gamma, e, w0, z0, t_start=t_start, t_end=t_start + periods * T,
-                       method=method, **sim_kw)
+                       method=method, callback=settle, **sim_kw)
         if run.status == 5:
             # interrupted while settling: the state so far, not a periodic orbit (no Newton step)
             orb = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, cutoff=cutoff, guess=run, method=method,
@@ -183,7 +200,10 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
     simulate_kw : dict, optional
         Keywords of :func:`~tps_solver.simulate` used by both the settling run and the period map.
     callback : callable, optional
-        ``callback(state)`` after every Newton step (as :func:`~tps_solver.find_periodic_orbit`).
+        ``callback(state)`` once per forcing cycle of the settling run (stage ``"simulate"``) and
+        after every Newton step (stage ``"shooting"``, as :func:`~tps_solver.find_periodic_orbit`).
+        The first settling period is timed: settling whose measured pace exceeds the time limit
+        of :func:`tps_solver.core.costs.set_limits` is refused (``ValueError`` naming ``periods``).
     **shooting_kw
         Further keywords of :func:`~tps_solver.find_periodic_orbit` (``tol``, ``max_iter``,
         ``n_multipliers``, ``dense_max``, ...).
