@@ -62,6 +62,12 @@ def run(case):
         print("ready", flush=True)
         r = tps.continue_branch(fl, "Gamma", (2.3, 3.2), max_points=10**6, step=1e-7, max_step=1e-6, min_step=1e-9)
         return dict(status=r.status, message=r.message)
+    if case == "branch_cycle":
+        cyc = tps.solve_lattice_cycle(tps.Lattice.planar(n_nodes=8, length=140.0), Gamma=2.5, M=2, e=0.45, t0=None)
+        print("ready", flush=True)
+        r = tps.continue_branch(cyc, "spacing", (8.0, 60.0), direction=1, step=0.01, max_step=0.02,
+                                max_points=10**5)
+        return dict(status=r.status, message=r.message)
     if case == "basins":
         print("ready", flush=True)
         r = tps.flat_basins(2.5, 0.45, n_samples=4000, periods=400, executor="serial")
@@ -77,7 +83,8 @@ except Exception as exc:
 print("RESULT " + json.dumps(out), flush=True)
 '''
 
-CASES = ["simulate", "check_stability", "shooting", "find_periodic_orbit", "tps", "branch", "basins", "sweep"]
+CASES = ["simulate", "check_stability", "shooting", "find_periodic_orbit", "tps", "branch", "branch_cycle",
+         "basins", "sweep"]
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGINT to a subprocess is POSIX")

@@ -383,9 +383,13 @@ class _CycleProblem:
         _, lat, flat = self._setup(p)
         cyc = solve_lattice_cycle(lat, Gamma=flat.Gamma, M=flat.M, e=flat.e, t0=None,
                                   tc_initial=np.mod(x, self.T), continuation=False)
+        if cyc.status == 5:
+            raise KeyboardInterrupt
         if not cyc.converged:
             raise _Refused(f"the lattice cycle did not converge at {self.parameter} = {p:.6g}: {cyc.message}")
         orb = find_periodic_orbit(lat, Gamma=flat.Gamma, M=flat.M, e=flat.e, guess=cyc)
+        if orb.status == 5:
+            raise KeyboardInterrupt
         mu = np.asarray(orb.multipliers, dtype=complex)
         if mu.size == 0:
             raise _Refused(f"multipliers undefined at {self.parameter} = {p:.6g}: {orb.message}")

@@ -118,12 +118,12 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
     note = ""
     guess, t_guess = (w0, z0), t_start
     if periods > 0:
-        # the first settling period is the probe of the cost: the run is refused when its
+        # the first forcing cycle is the probe of the cost: the run is refused when its
         # measured pace puts all of them beyond the time limit; the states go on to ``callback``
         clock, probed = time.perf_counter(), [False]
 
         def settle(state):
-            if not probed[0] and state.fraction * periods >= 1.0 and state.fraction < 1.0:
+            if not probed[0] and 0.0 < state.fraction < 1.0:      # after the first forcing cycle
                 probed[0] = True
                 elapsed = time.perf_counter() - clock
                 check_cost("lattice_kink", "periods", periods, 1e6, elapsed / state.fraction,
@@ -202,7 +202,7 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
     callback : callable, optional
         ``callback(state)`` once per forcing cycle of the settling run (stage ``"simulate"``) and
         after every Newton step (stage ``"shooting"``, as :func:`~tps_solver.find_periodic_orbit`).
-        The first settling period is timed: settling whose measured pace exceeds the time limit
+        The first forcing cycle is timed: settling whose measured pace exceeds the time limit
         of :func:`tps_solver.core.costs.set_limits` is refused (``ValueError`` naming ``periods``).
     **shooting_kw
         Further keywords of :func:`~tps_solver.find_periodic_orbit` (``tol``, ``max_iter``,

@@ -676,20 +676,30 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         out.message = message
     elif status == 3:
         out.message = message + "; try another method, a smaller time_tol or a guess closer to the orbit"
+    def interrupted(where):
+        # Ctrl-C after Newton: the iterate is kept, but the call was stopped (status 5, never 0)
+        out.update(status=5, status_text=STATUS[5], converged=False, success=False,
+                   message=f"interrupted {where} (KeyboardInterrupt); the last Newton iterate is kept "
+                           f"(max|P(x) - x| = {res:.3g}; pass the orbit as guess= to finish)")
+
     try:
         _pattern(out, pm, x, simultaneity)
-    except (PeriodMapError, KeyboardInterrupt) as exc:
+    except PeriodMapError as exc:
         notes.append(f"contact pattern not evaluated ({type(exc).__name__})")
-    if status == 0 and multipliers and Px is None:
-        Px = pm(x)[0]
-    if status == 0 and multipliers:
+    except KeyboardInterrupt:
+        interrupted("while reading the contact pattern")
+        notes.append("contact pattern not evaluated (KeyboardInterrupt)")
+    if out.status == 0 and multipliers:
         try:
+            if Px is None:
+                Px = pm(x)[0]
             _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_multipliers,
                          differentiability_rtol, neutral_tol, growth_periods, notes)
         except PeriodMapError as exc:
             notes.append(f"multipliers not computed: {exc.message}")
         except KeyboardInterrupt:
-            notes.append("multipliers interrupted (KeyboardInterrupt): not computed")
+            interrupted("while computing the multipliers")
+            notes.append("multipliers not computed")
     out.n_period_maps = n_maps + pm.count
     return _finish(out, notes, start_clock)
 
