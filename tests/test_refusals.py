@@ -105,9 +105,9 @@ def test_the_impact_and_stick_tps_refuses_a_dense_newton_step_out_of_reach():
 
 def test_the_fault_battery_is_all_good():
     """validation/fault_battery.py: every item refused by name or answered honestly (7 of 16 at 33c4ade)."""
-    from validation.fault_battery import main
+    from validation.fault_battery import battery
 
-    rows = main()
+    rows = battery()
     assert [r[0] for r in rows if r[1] != "good"] == []
 
 

@@ -11,7 +11,8 @@ import numpy as np
 import tps_solver as tps
 
 
-def main():
+def battery():
+    """Run every item; returns rows (name, 'good' or 'bad', what happened) and prints them."""
     fl = tps.FlatLayer(2.5, e=0.45)
     lat5 = tps.Lattice.planar(n_nodes=5, length=4.0)
     t = fl.t0 + 1.0
@@ -71,6 +72,31 @@ def main():
     good = sum(r[1] == "good" for r in rows)
     for r in rows: print("%-55s %-5s %s" % r)
     print(f"good {good} of {len(rows)}")
+    return rows
+
+
+def write(rows):
+    """The section ``validation/sections/faults.md`` from the rows of :func:`battery`."""
+    from validation.report import write_section
+
+    good = sum(r[1] == "good" for r in rows)
+    lines = ["## Faults: unbounded calls, loose options, interrupts, damaged files", "",
+             f"The battery of `validation/fault_battery.py`: **{good} of {len(rows)} good** (7 of 16 at commit "
+             "33c4ade). Good: refused by a `ValueError` naming the parameter within 5 s, or an honest answer.", "",
+             "| item | verdict | what happened |", "|---|---|---|"]
+    lines += [f"| {name} | {verdict} | {what} |" for name, verdict, what in rows]
+    lines += ["", "Also in the default suite: `tests/test_interrupts.py` (SIGINT in a subprocess in 9 long calls: "
+              "status 5 and an honest message in each), `tests/test_sweep_faults.py` (failed, corrupted and swapped "
+              "points, a crashed worker, kill -9 then resume), `tests/test_file_faults.py` (1080 damaged files: "
+              "1001 ValueErrors, 79 identical loads, 0 different values), `tests/test_refusals.py` (a test per "
+              "unbounded call).", "", "Printed by `python -m validation.fault_battery`."]
+    write_section("faults", "\n".join(lines))
+
+
+def main():
+    """Run the battery and write its section."""
+    rows = battery()
+    write(rows)
     return rows
 
 

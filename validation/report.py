@@ -55,6 +55,7 @@ SECTION_ORDER = (
     ("continuation", "Continuation: folds and period doublings"),
     ("existence_map", "Where kinks and oscillons exist: the existence-stability map"),
     ("house", "One problem, one Newton"),
+    ("faults", "Faults: unbounded calls, loose options, interrupts, damaged files"),
 )
 
 

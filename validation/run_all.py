@@ -24,7 +24,7 @@ from validation.report import REPORT_PATH, build_report, optional_import, write_
 MODULES = ("flat_layer_analytics", "linear_stability", "tps_branches", "flat_layer", "kink", "oscillon",
            "cutoff", "fda_benchmark", "lattice_tps", "speed_vs_error", "figures", "flat_sticking",
            "tps_stick", "inelastic_kinks", "inelastic_fronts", "basins", "shooting", "soft_kinks", "continuation",
-           "existence_map", "house")
+           "existence_map", "house", "fault_battery")
 
 #: Modules whose ``main()`` prints its tables without writing a section: their printed output is
 #: the section (written to ``validation/sections/<name>.md`` after the run).
