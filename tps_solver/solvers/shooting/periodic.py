@@ -72,8 +72,7 @@ from tps_solver.core.progress import progress_state
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 from tps_solver.solvers.fda.dense import PiecewiseFlow
-from tps_solver.solvers.shooting.floquet import fit_growth, ritz_multipliers
-from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
+from tps_solver.solvers.shooting.floquet import fit_growth, multipliers as floquet_multipliers, ritz_multipliers
 
 __all__ = ["find_periodic_orbit", "ShootingOrbit"]
 
@@ -693,7 +692,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         try:
             if Px is None:
                 Px = pm(x)[0]
-            _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_multipliers,
+            _multipliers(out, pm, x, Px, m, jacobian_step, dense_max, n_multipliers,
                          differentiability_rtol, neutral_tol, growth_periods, notes)
         except PeriodMapError as exc:
             notes.append(f"multipliers not computed: {exc.message}")
@@ -740,7 +739,7 @@ def _pattern(out, pm, x, simultaneity):
     out.simultaneous_contacts = simultaneous
 
 
-def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, drtol, neutral_tol,
+def _multipliers(out, pm, x, Px, m, jacobian_step, dense_max, n_mult, drtol, neutral_tol,
                  growth_periods, notes):
     """Floquet multipliers (dense or Arnoldi) after a one-sided differentiability test."""
     scale = max(1.0, float(np.max(np.abs(x), initial=0.0)))
@@ -784,14 +783,7 @@ def _multipliers(out, pm, x, Px, m, fd_step, jacobian_step, dense_max, n_mult, d
         mu = floquet_multipliers(pm.matrix(x, jacobian_step))
         kind = "all (dense)"
     else:
-        def jv(v):
-            nv = float(np.max(np.abs(v)))
-            if nv == 0.0:
-                return np.zeros_like(v)
-            hh = fd_step * scale / nv
-            if not soft and np.any(x[m:] + hh * v[m:] < 0.0):
-                hh = -hh
-            return (pm(x + hh * v)[0] - Px) / hh
+        jv = pm.monodromy(x, (Px, 0.0)).matvec       # the map's one-sided difference action
 
         # Arnoldi of fixed dimension (one product per step, cost known in advance); ARPACK's
         # implicit restarts have no useful bound on the number of products when the spectrum
