@@ -232,7 +232,8 @@ def _newton(problem, x, tol, max_iter, callback=None):
     """The one Newton engine (:func:`tps_solver.core.newton.newton`) with the dense Jacobian
     reused as a chord while it contracts by 10 per step, after a least-squares start of the
     linear unknowns."""
-    F, st, v = problem.residual(x)
+    first = problem.residual(x)
+    F, st, v = first
     # the residual is affine in the impulses and reaction coefficients: start with their
     # least-squares values for the initial times (the initial reaction is unknown)
     # (only the cheap linear columns are needed for that; the time columns, the expensive part
@@ -242,11 +243,12 @@ def _newton(problem, x, tol, max_iter, callback=None):
         step = np.linalg.lstsq(Jm[:, problem.n_theta:], -F, rcond=None)[0]
         x_lin = x.copy()
         x_lin[problem.n_theta:] += step
-        F_lin = problem.residual(x_lin)[0]
-        if np.max(np.abs(F_lin)) < np.max(np.abs(F)):
-            x = x_lin
+        first_lin = problem.residual(x_lin)
+        if np.max(np.abs(first_lin[0])) < np.max(np.abs(F)):
+            x, first = x_lin, first_lin
+    # the residual at the start is known: the engine does not evaluate it again
     out = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", chord=0.1, min_step=1.0 / 256,
-                 callback=callback)
+                 first=first, callback=callback)
     if out.status == 5:
         out.message += "; the fields hold the last accepted iterate"
     message = out.message
