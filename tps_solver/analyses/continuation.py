@@ -420,7 +420,7 @@ class _ProtocolProblem:
         self.p0 = self.fixed[self.parameter]
         self.with_multipliers = multipliers
         self._problems = {}
-        self._last = None
+        self._last = self._mono = self._jac = None       # one-point caches of residual, monodromy, Jacobian
 
     def _at(self, p):
         key = float(p)
@@ -450,25 +450,33 @@ class _ProtocolProblem:
         return self._evaluate(x, p)[1]
 
     def _monodromy_matrix(self, x, p):
+        key = (x.tobytes(), float(p))
+        if self._mono is not None and self._mono[0] == key:      # the tangent and the multipliers
+            return self._mono[1]                                  # of one point share it
         prob, F, data = self._evaluate(x, p)
         try:
-            if hasattr(prob, "monodromy_matrix"):
-                return prob.monodromy_matrix(x)
-            mono = prob.monodromy(x, data)
+            mono = prob.monodromy_matrix(x) if hasattr(prob, "monodromy_matrix") else prob.monodromy(x, data)
         except NotImplementedError:
-            return None
+            mono = None
         except PeriodMapError as exc:
             raise _Refused(f"at {self.parameter} = {p:.6g}: {exc}") from None
-        return mono.matmat(np.eye(x.size)) if isinstance(mono, LinearOperator) else np.asarray(mono, float)
+        if mono is not None:
+            mono = mono.matmat(np.eye(x.size)) if isinstance(mono, LinearOperator) else np.asarray(mono, float)
+        self._mono = (key, mono)
+        return mono
 
     def jacobian(self, x, p):
+        key = (x.tobytes(), float(p))
+        if self._jac is not None and self._jac[0] == key:        # corrector, tangent, fold test
+            return self._jac[1]
         prob, F, data = self._evaluate(x, p)
         if hasattr(prob, "monodromy_matrix"):
             Jx = self._monodromy_matrix(x, p) - np.eye(x.size)
         else:
             J = prob.jacobian(x, F, data)
             Jx = J.matmat(np.eye(x.size)) if isinstance(J, LinearOperator) else np.asarray(J, float)
-        return Jx, _dF_dp(self, x, p)
+        self._jac = (key, (Jx, _dF_dp(self, x, p)))
+        return self._jac[1]
 
     def monodromy(self, x, p):
         if not self.with_multipliers:
