@@ -157,3 +157,10 @@ def test_every_former_newton_loop_keeps_its_iteration_count():
     assert now["shooting_maps"] == BEFORE["shooting_maps"] + now["shooting_nit"]
     assert now["kink_residual"] <= 1e-10 and now["cycle_residual"] <= 1e-12
     assert now["stick_flat_error_4.1"] <= 1e-12 and now["stick_flat_error_4.6"] <= 1e-11
+
+
+def test_gmres_on_a_dense_jacobian_uses_its_action():
+    dense = newton(Rosen(), np.array([-1.2, 1.0]), tol=1e-15, max_iter=30)
+    krylov = newton(Rosen(), np.array([-1.2, 1.0]), tol=1e-15, max_iter=30, linear="gmres")
+    assert krylov.status == 0 and np.max(np.abs(krylov.x - dense.x)) <= 4 * EPS
+    assert np.all(krylov.linear_products[:1] >= 1)

@@ -39,7 +39,7 @@ import warnings
 
 import numpy as np
 from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
-from scipy.sparse.linalg import LinearOperator, gmres
+from scipy.sparse.linalg import LinearOperator, aslinearoperator, gmres
 
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.orbit import STATUS, converged_message, outcome
@@ -251,6 +251,7 @@ def newton(problem, x0, *, tol, max_iter, linear="auto", line_search="backtrack"
                 fresh = True
                 n = x.size
                 count = [0]
+                J = aslinearoperator(J)          # linear="gmres" with a matrix: its action
 
                 def matvec(v, J=J, count=count):
                     count[0] += 1
