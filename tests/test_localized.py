@@ -146,3 +146,19 @@ def test_front_width_refuses_orbits_without_a_front():
     flat.height = lambda t: np.ones((np.size(t), 11)) * 5.49
     with pytest.raises(ValueError, match="no front"):
         front_width(flat)
+
+
+def test_lattice_kink_max_iter_is_checked():
+    lat = tps.Lattice.planar(n_nodes=6, length=40.0)
+    with pytest.raises(ValueError, match="max_iter"):
+        lattice_kink(lat, Gamma=4.1, e=0.0, periods=0, max_iter=-1)
+
+
+@pytest.mark.slow
+def test_lattice_kink_defaults_converge_at_dx1():
+    """Gamma = 4.1, e = 0, dx = 1: the defaults converge (33 Newton steps, more than find_periodic_orbit's 30)."""
+    lat = tps.Lattice.planar(n_nodes=41, length=40.0)
+    orb = lattice_kink(lat, Gamma=4.1, e=0.0)
+    assert orb.converged and orb.localized and orb.residual < 1e-10
+    assert 30 < orb.nit <= 80
+    assert 0.99 < abs(orb.multipliers[0]) < 1.0            # the nearly neutral front position

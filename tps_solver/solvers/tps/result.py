@@ -229,6 +229,8 @@ def _legacy(f):
         spacing=float(np.min(np.diff(nodes))) if n > 1 else float("inf"), lattice=lattice)
     from tps_solver.solvers.tps.checks import physical_checks
 
+    sol.formulation = ("single-contact TPS (continuum, Green-function quadrature)" if lattice is None
+                       else "single-contact TPS (FDA lattice)")
     sol.checks = physical_checks(sol)
     return sol
 

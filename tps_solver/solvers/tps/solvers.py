@@ -258,6 +258,8 @@ def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geom
         sol.zeta_shift = np.where(zmin < 0.0, -zmin, 0.0)
         sol.min_shift = True
         sol.message += "; zeta min-shifted by (64)-(65) (NOT a solution of the contact problem where shifted)"
+    sol.formulation = ("single-contact TPS (continuum, Green-function quadrature)" if lattice is None
+                       else "single-contact TPS (FDA lattice)")
     sol.checks = physical_checks(sol)
     return sol
 
@@ -353,8 +355,20 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
                tc_initial=None, *, half_length=None, n_nodes=defaults.N_NODES, tol=defaults.TOL,
                max_iter=defaults.MAX_ITER, scheme="newton",
                paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
-               symmetry="kink", callback=None, length=None):
+               symmetry="kink", callback=None, length=None, lattice=None):
     r"""Time-periodic kink: two flat layers bouncing half a period apart.
+
+    Two formulations, named in the result's ``formulation``:
+
+    * ``e > 0`` (or ``t0`` given): the single-contact TPS on the continuum, one impact with
+      rebound per node and period (below);
+    * ``e = 0``: the completely inelastic kink, where every node lands, sticks, lifts off and
+      touches again each period.  The call is :func:`~tps_solver.solvers.tps.stick_kink.solve_stick_kink`
+      on ``lattice`` (default: spacing 1 on [-20, 20]; the spacing is the model's cut-off and
+      is named in ``spacing``); ``Gamma``, ``M``, ``tol``, ``max_iter`` (of the shooting) and
+      ``callback`` apply, the single-contact options do not (giving one raises
+      ``ValueError``).  The result is a :class:`~tps_solver.solvers.tps.stick.StickSolution`
+      with its contact pattern, the FDA check and the Floquet multipliers.
 
     Solves (45)-(46) on :math:`x \ge 0` with the kink symmetry
     :math:`w(t + T/2, -x) = w(t, x)` (see the module docstring) and returns
@@ -415,10 +429,15 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         continuation; each sweep of a fixed-point scheme), a
         :class:`~tps_solver.core.progress.ProgressState` with ``stage``, ``iteration``, ``residual`` and ``tc``.
         A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate.
+    lattice : tps_solver.Lattice, keyword-only
+        For ``e = 0`` only: the planar Neumann lattice of the inelastic kink.
 
     Returns
     -------
-    PeriodicSolution
+    PeriodicOrbit
+        For ``e > 0`` a :class:`PeriodicSolution`, for ``e = 0`` a
+        :class:`~tps_solver.solvers.tps.stick.StickSolution`; both say which in ``formulation``.
+        The rest of this section is the single-contact one.
         ``converged``, ``status`` (:data:`tps_solver.core.orbit.STATUS`), a ``message``
         that ends with what to try when it did not converge, ``nodes`` (the nodes
         solved) and ``nodes_requested`` (the grid asked for; they differ only when a
@@ -433,7 +452,35 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
     >>> fine = solve_kink(n_harmonics=8, n_nodes=40, half_length=5.0)
     >>> fine.status, fine.nodes_requested.shape, fine.checks.all_pass
     (4, (80,), False)
+    >>> sol.formulation
+    'single-contact TPS (continuum, Green-function quadrature)'
+
+    The inelastic kink, on a coarse lattice (dx = 8) to keep the example short:
+
+    >>> import tps_solver as tps
+    >>> k = solve_kink(4.1, e=0.0, lattice=tps.Lattice.planar(n_nodes=6, length=40.0))
+    >>> k.converged, k.checks.all_pass, k.spacing, k.formulation.split(" (")[0]
+    (True, True, 8.0, 'impact-and-stick TPS')
     """
+    if e is not None and t0 is None and float(e) == 0.0:
+        given = [name for name, value, default in (
+            ("tc_initial", tc_initial, None), ("half_length", half_length, None), ("length", length, None),
+            ("n_harmonics", n_harmonics, defaults.N_HARMONICS), ("n_nodes", n_nodes, defaults.N_NODES),
+            ("scheme", scheme, "newton"), ("paper_sign", paper_sign, 1), ("min_shift", min_shift, False),
+            ("continuation", continuation, True), ("tail_correction", tail_correction, True),
+            ("symmetry", symmetry, "kink")) if value != default]
+        if given:
+            raise ValueError(f"{given[0]} applies to the single-contact TPS (e > 0); the e = 0 kink is "
+                             "solved by solve_stick_kink on a lattice (give lattice=, Gamma, M, tol, "
+                             "max_iter, callback)")
+        from tps_solver.solvers.tps.stick_kink import solve_stick_kink
+        kw = {} if max_iter == defaults.MAX_ITER else {"max_iter": max_iter}
+        if tol != defaults.TOL:
+            kw["tol"] = tol
+        return solve_stick_kink(Gamma, M, lattice=lattice, callback=callback, **kw)
+    if lattice is not None:
+        raise ValueError("lattice applies to the e = 0 kink only; for single-contact kinks on a lattice "
+                         "use solve_lattice(lattice, ...)")
     if half_length is not None and length is not None:
         raise ValueError(f"give one of half_length and length (its former name), got half_length="
                          f"{half_length!r} and length={length!r}")

@@ -1,0 +1,188 @@
+r"""The completely inelastic (e = 0) kink on a lattice: one call from the far field to a checked orbit.
+
+:func:`solve_stick_kink` is what :func:`tps_solver.solve_kink` does for ``e = 0``, where every
+node lands, sticks, lifts off and touches again each period (the single-contact TPS does not
+apply).  Pipeline, each stage reported in the result:
+
+1. the kink start of :func:`tps_solver.solvers.fda.kink_state` (the sticking flat orbit for
+   x < 0, the same half a period later for x > 0, a linear transition of width 2) at a
+   quarter period after the far field's lift-off, settled by ``periods`` periods of the
+   exact FDA;
+2. shooting on the FDA period map (:func:`tps_solver.find_periodic_orbit`), which also gives
+   the Floquet multipliers (:mod:`tps_solver.solvers.shooting.floquet`);
+3. the impact-and-stick TPS (:func:`tps_solver.solve_stick_lattice`) on the contact pattern
+   of the shooting orbit: contact and lift-off times to Newton accuracy, the spectral
+   reaction on every stick, the physical checks;
+4. the FDA started on the TPS orbit for ``fda_periods`` periods: the largest distance of its
+   events from the TPS's contact and lift-off times and the state defect after the run.
+
+The contact pattern is found by the time stepper and shooting (stages 1-2), not by the TPS
+itself: a pattern-free space-time complementarity Newton was tried and does not reach the
+kink (``validation/spacetime_discovery.py``).
+
+The lattice spacing is the model's cut-off: pointwise impacts along a tilted landing front
+are ill-posed on the continuum (docs/design.md, hazard 3), so the orbit belongs to its
+lattice, and the result names it (``spacing``).
+"""
+import time
+
+import numpy as np
+
+from tps_solver.core.bunch import Bunch
+from tps_solver.core.checks import check_int, check_positive
+from tps_solver.model.flat import FlatLayer
+from tps_solver.operators.lattice import Lattice
+from tps_solver.solvers.fda import kink_state, simulate
+from tps_solver.solvers.shooting.periodic import find_periodic_orbit
+from tps_solver.solvers.tps.stick import solve_stick_lattice
+from tps_solver.solvers.tps.stick_pattern import check_with_fda, pattern_from_fda
+
+__all__ = ["solve_stick_kink", "DEFAULT_LENGTH", "DEFAULT_SPACING", "FDA_TOL"]
+
+#: Default lattice: spacing 1 on [-20, 20] (41 nodes).  Front widths at Gamma = 4.1 measured
+#: with one definition (validation/tps_stick.py, FRONT_WIDTH) change by < 0.03 between
+#: dx = 1, 0.5 and 0.25, not monotonically (pinning), so dx = 1 is converged to about 0.03.
+DEFAULT_SPACING = 1.0
+DEFAULT_LENGTH = 40.0
+
+#: The FDA check passes when its events stay within this of the TPS's times (and the state too).
+FDA_TOL = 1e-8
+
+
+def _default_lattice(spacing, length):
+    n = int(round(length / spacing)) + 1
+    return Lattice.planar(n_nodes=n, length=length)
+
+
+def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, fda_periods=10,
+                     n_basis=8, tol=1e-10, callback=None):
+    r"""The e = 0 kink on a planar lattice, checked by the FDA (module docstring).
+
+    Parameters
+    ----------
+    Gamma : float
+        Plate acceleration; the sticking f/2 far field exists for 3.857 <= Gamma <= 6.362.
+    M : int
+        Even period order, T = 2 pi M (default 2).
+    lattice : tps_solver.Lattice, optional
+        Planar Neumann lattice with the front at x = 0.  Default: spacing
+        :data:`DEFAULT_SPACING` on a length of :data:`DEFAULT_LENGTH` (41 nodes).
+    periods : int
+        FDA periods that settle the start before shooting, >= 0.
+    max_iter : int
+        Newton steps of the shooting (the front is nearly neutral: 33 at Gamma = 4.1, dx = 1).
+    fda_periods : int
+        Periods of the FDA check, >= 1.
+    n_basis : int
+        Legendre terms of the reaction per stick segment of the TPS.
+    tol : float
+        Residual target of the TPS.
+    callback : callable, optional
+        ``callback(state)`` after every Newton step of the shooting and of the TPS.
+
+    Returns
+    -------
+    StickSolution
+        A :class:`~tps_solver.core.orbit.PeriodicOrbit` with its contact ``pattern`` and, in
+        addition, ``formulation`` (str), ``spacing`` (float, the lattice's cut-off),
+        ``orbit`` (the shooting orbit), ``multipliers`` (ndarray of complex, the shooting
+        orbit's Floquet multipliers, largest modulus first; None if shooting failed),
+        ``fda_check`` (Bunch: ``periods``, ``contact_error``, ``liftoff_error``,
+        ``state_defect``, ``passed``) and ``seconds`` (Bunch of the stages' wall-clock
+        times).  ``checks.all_pass`` is False unless the TPS converged, its physical checks
+        pass and the FDA check passes.
+
+    Raises
+    ------
+    ValueError
+        For a lattice that is not planar with Neumann ends, odd ``M``, or a ``Gamma`` at
+        which the sticking f/2 flat orbit does not exist.
+
+    Examples
+    --------
+    A coarse lattice (dx = 8; the default dx = 1 takes about a minute):
+
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=6, length=40.0)
+    >>> sol = solve_stick_kink(4.1, lattice=lat, periods=4, fda_periods=3)
+    >>> sol.converged, sol.checks.all_pass, sol.fda_check.passed, sol.spacing
+    (True, True, True, 8.0)
+    >>> round(float(abs(sol.multipliers[0])), 3)
+    0.031
+    """
+    clock = time.perf_counter()
+    M = check_int(M, "M", minimum=2)
+    if M % 2:
+        raise ValueError(f"M must be even for a kink, got {M}")
+    Gamma = check_positive(Gamma, "Gamma")
+    periods = check_int(periods, "periods", minimum=0)
+    fda_periods = check_int(fda_periods, "fda_periods", minimum=1)
+    max_iter = check_int(max_iter, "max_iter", minimum=0)
+    if lattice is None:
+        lattice = _default_lattice(DEFAULT_SPACING, DEFAULT_LENGTH)
+    if not isinstance(lattice, Lattice) or lattice.geometry != "planar" or lattice.boundary != "neumann":
+        raise ValueError("lattice must be a planar tps.Lattice with Neumann ends, e.g. "
+                         "tps.Lattice.planar(n_nodes=41, length=40.0)")
+    try:
+        flat = FlatLayer(Gamma, M, e=0.0, pattern="stick")
+    except ValueError as exc:
+        raise ValueError(f"Gamma = {Gamma:g} has no sticking flat orbit of period 2 pi M = {2 * M} pi "
+                         f"at e = 0 ({exc}); the f/2 one exists for 3.857 <= Gamma <= 6.362") from None
+    T = flat.period
+    t_start = float(flat.t0 + 0.25 * T)
+    w0, z0 = kink_state(lattice, flat, t_start, width=2.0)
+    seconds = Bunch()
+    tick = time.perf_counter()
+    guess, t_guess, run = (w0, z0), t_start, None
+    if periods:
+        run = simulate(lattice, Gamma, 0.0, w0, z0, t_start=t_start, t_end=t_start + periods * T,
+                       method="exact")
+        if run.success:
+            guess, t_guess = run, None
+    seconds.settle = time.perf_counter() - tick
+    tick = time.perf_counter()
+    orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=0.0, guess=guess, t_start=t_guess,
+                                method="exact", max_iter=max_iter, callback=callback)
+    seconds.shooting = time.perf_counter() - tick
+    tick = time.perf_counter()
+    note = ""
+    pattern = orbit
+    if not orbit.converged:
+        note = f"shooting did not converge ({orbit.message}); "
+        if run is not None:
+            try:
+                pattern = pattern_from_fda(run, lattice, T)
+                note += "the TPS started on the pattern of the settling run. "
+            except ValueError:
+                note += "the TPS started on the pattern of the last shooting iterate. "
+    sol = solve_stick_lattice(lattice, Gamma, M, 0.0, pattern=pattern, n_basis=n_basis, tol=tol,
+                              refresh=0, callback=callback)
+    seconds.tps = time.perf_counter() - tick
+    tick = time.perf_counter()
+    sol.orbit = orbit
+    sol.multipliers = orbit.multipliers if orbit.converged else None
+    sol.spacing = float(lattice.spacing)
+    sol.formulation = ("impact-and-stick TPS (solve_stick_lattice) on the contact pattern of a shooting "
+                       "orbit (find_periodic_orbit after FDA settling)")
+    if sol.converged:
+        chk = check_with_fda(sol, periods=fda_periods)
+        t_end = chk.run.t
+        defect = max(float(np.max(np.abs(chk.run.w - sol.velocity([t_end])[0]))),
+                     float(np.max(np.abs(chk.run.zeta - np.maximum(sol.height([t_end])[0], 0.0)))))
+        passed = bool(chk.run.status == 0 and max(chk.contact_error, chk.liftoff_error, defect) <= FDA_TOL)
+        sol.fda_check = Bunch(periods=fda_periods, contact_error=float(chk.contact_error),
+                              liftoff_error=float(chk.liftoff_error), state_defect=defect, passed=passed)
+        if not passed:
+            note += (f"the FDA started on the TPS orbit leaves it (event error "
+                     f"{max(chk.contact_error, chk.liftoff_error):.2e}, state defect {defect:.2e} after "
+                     f"{fda_periods} periods, tolerance {FDA_TOL:g}). ")
+    else:
+        sol.fda_check = Bunch(periods=0, contact_error=np.nan, liftoff_error=np.nan, state_defect=np.nan,
+                              passed=False)
+    seconds.fda_check = time.perf_counter() - tick
+    seconds.total = time.perf_counter() - clock
+    sol.seconds = seconds
+    sol.checks.all_pass = bool(sol.converged and sol.checks.all_pass and sol.fda_check.passed)
+    if note:
+        sol.message = note + sol.message
+    return sol
