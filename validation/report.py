@@ -46,6 +46,7 @@ SECTION_ORDER = (
     ("figures", "The paper's figures"),
     ("flat_sticking", "Flat orbits with sticking, touch-and-go and chatter (e -> 0)"),
     ("tps_stick", "The TPS for impact-and-stick contacts"),
+    ("stick_kink", "The e = 0 kink by the front door (solve_kink)"),
     ("inelastic_kinks", "The completely inelastic kinks (e = 0): Gamma table, refinement, oscillons"),
     ("inelastic_fronts", "The e = 0 fronts under refinement: why there is no continuum stick TPS yet"),
     ("basins", "Basins of the bouncing ball"),

@@ -203,7 +203,8 @@ def bouncing_far_field(Gamma, M, e=None, t0=None):
         raise ValueError(
             f"e = {e} gives no single-bounce flat layer at Gamma = {Gamma:g}, M = {M} ({exc}); the "
             "single-contact TPS needs one impact with rebound per node and period. Where the layer "
-            "sticks (e -> 0) use tps.lattice_kink / tps.lattice_oscillon (any contact pattern, by "
+            "sticks use tps.solve_kink(Gamma, e=0.0) for the e = 0 kink (shooting, then the impact-and-stick "
+            "TPS, checked by the FDA), tps.lattice_kink / tps.lattice_oscillon (any contact pattern, by "
             "shooting; command line: tps-solver lattice-kink --gamma 4.1 --e 0), tps.solve_stick_lattice "
             "(the impact-and-stick TPS) or tps.find_periodic_orbit") from None
 
