@@ -371,7 +371,7 @@ def test_flat_harmonics_refuse_an_out_of_reach_N_before_allocating():
 
 @pytest.mark.parametrize("call", [
     lambda: tps.solve_kink(Gamma=4.1, e=0.0, n_harmonics=8),   # e = 0 kinks go to solve_stick_kink
-    lambda: tps.solve_oscillon(Gamma=4.1, e=0.0),
+    lambda: tps.solve_oscillon(Gamma=4.1, e=0.0, n_harmonics=8),
     lambda: tps.solve_lattice_cycle(tps.Lattice.planar(8, 140.0), Gamma=4.1, e=0.0),
 ])
 def test_single_contact_tps_refuses_a_sticking_far_field(call):

@@ -81,3 +81,39 @@ def test_default_lattice_is_dx1():
     assert sol.spacing == 1.0 and sol.lattice.n_nodes == 41
     assert sol.converged and sol.checks.all_pass and sol.fda_check.passed
     assert 0.99 < abs(sol.multipliers[0]) < 1.0
+
+
+def test_e0_oscillon_pinned_on_a_coarse_lattice():
+    """dr = 8: the lattice pins a core of radius 12 (as lattice_oscillon finds); the FDA stays on it."""
+    lat = tps.Lattice.axisymmetric(n_nodes=6, r_max=40.0, grid="uniform")
+    sol = tps.solve_oscillon(4.1, e=0.0, lattice=lat, r_core=12.0)
+    ref = tps.lattice_oscillon(lat, Gamma=4.1, e=0.0, core_radius=12.0)
+    assert sol.converged and sol.localized and sol.checks.all_pass and ref.localized
+    dt, dtau = _against_shooting(sol, ref)
+    assert dt < 1e-9 and dtau < 1e-9
+    assert sol.fda_check.passed
+
+
+def test_e0_oscillon_that_does_not_exist_is_not_reported():
+    """dr = 4: the core shrinks to nothing while settling; the orbit found is the flat layer, and it says so."""
+    lat = tps.Lattice.axisymmetric(n_nodes=11, r_max=40.0, grid="uniform")
+    sol = tps.solve_oscillon(4.1, e=0.0, lattice=lat, r_core=10.0)
+    assert not sol.localized and not sol.checks.all_pass and not sol.checks.localized
+    assert sol.core_nodes[0] == 3 and sol.core_nodes[-1] == 0
+    assert sol.message.startswith("no oscillon found: the orbit is uniform")
+    # it is the flat e = 0 orbit: every node lands at the closed form's contact times
+    flat = tps.solvers.tps.stick.flat_stick_orbit(4.1, 2)
+    T = sol.period
+    for j in range(lat.n_nodes):
+        tj = np.sort(np.mod(sol.pattern.t[sol.pattern.node == j], T))
+        assert np.max(np.abs(tj - np.sort(np.mod(flat.t, T)))) < 1e-9
+
+
+def test_oscillon_options_that_do_not_apply_are_refused():
+    with pytest.raises(ValueError, match="n_nodes applies to the single-contact TPS"):
+        tps.solve_oscillon(4.1, e=0.0, n_nodes=12)
+    with pytest.raises(ValueError, match="lattice applies to the e = 0 oscillon"):
+        tps.solve_oscillon(4.1, e=0.45, lattice=tps.Lattice.axisymmetric(n_nodes=6, r_max=40.0, grid="uniform"))
+    with pytest.raises(ValueError, match="core_radius must lie inside"):
+        tps.solve_oscillon(4.1, e=0.0, lattice=tps.Lattice.axisymmetric(n_nodes=6, r_max=40.0, grid="uniform"),
+                           r_core=50.0)

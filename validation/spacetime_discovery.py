@@ -1,6 +1,6 @@
 """A measured negative result: pattern discovery by a space-time complementarity Newton (e = 0).
 
-Issue 20 asks the impact-and-stick TPS to *find* the kink's contact pattern from the far
+The impact-and-stick TPS should *find* the kink's contact pattern from the far
 field's flat orbit.  The formulation tried here is pattern-free: the whole period is one
 discrete problem on the heights :math:`\\zeta_j^k` (node j, time level k = 0..N-1 of a
 T-periodic grid, h = T/N), with the position-level (Paoli--Schatzman) impact law for e = 0:

@@ -1,4 +1,4 @@
-"""The e = 0 kink by the front door, ``tps.solve_kink(Gamma, e=0.0, lattice=...)`` (issue 20, point 3).
+"""The e = 0 kink by the front door, ``tps.solve_kink(Gamma, e=0.0, lattice=...)``.
 
 :func:`front_door` solves the kink on a planar lattice of length 40 and measures it against an
 independent shooting orbit (``tps.lattice_kink`` on the same lattice): contact and lift-off
@@ -61,9 +61,9 @@ def main(argv=None):
     text = ["`tps.solve_kink(4.1, e=0.0, lattice=...)` (formulation: impact-and-stick TPS on the pattern of a "
             "shooting orbit), planar Neumann lattice of length 40, against an independent "
             "`tps.lattice_kink` on the same lattice (`python -m validation.stick_kink`).", "",
-            markdown_table(rows, cols), "",
+            markdown_table(rows, [(c, c) for c in cols]), "",
             "Seconds per stage (one BLAS thread; `t_lattice_kink`: the shooting reference alone):", "",
-            markdown_table(rows, tcols), "",
+            markdown_table(rows, [(c, c) for c in tcols]), "",
             "The TPS does **not** find the pattern itself: the time stepper (settling) and shooting do. "
             "A pattern-free alternative was measured and fails (`python -m validation.spacetime_discovery`): "
             "the whole period as one discrete complementarity problem on the heights (position-level "

@@ -501,8 +501,14 @@ def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmon
                    tc_initial=None, *, r_max=defaults.R_MAX, n_nodes=defaults.N_NODES,
                    r_core=defaults.R_CORE, tol=defaults.TOL, max_iter=defaults.MAX_ITER,
                    scheme="newton", paper_sign=1, min_shift=False, continuation=True,
-                   tail_correction=True, callback=None):
+                   tail_correction=True, callback=None, lattice=None):
     r"""Time-periodic axisymmetric oscillon in a flat layer of phase t0.
+
+    For ``e = 0`` the call is :func:`~tps_solver.solvers.tps.stick_kink.solve_stick_oscillon`
+    on ``lattice`` (default: uniform spacing 1 up to r = 40), with ``r_core`` as its core
+    radius (default 10 there); it returns a
+    :class:`~tps_solver.solvers.tps.stick.StickSolution` that says, in ``localized`` and its
+    message, when no oscillon was found (as in :func:`solve_kink`).
 
     Parameters
     ----------
@@ -518,11 +524,14 @@ def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmon
         Nodes ``r_j = j h``, ``h = r_max/(n_nodes - 1)``, default 8.
     r_core : float, keyword-only
         Core radius of the default initial guess.
+    lattice : tps_solver.Lattice, keyword-only
+        For ``e = 0`` only: the axisymmetric lattice.
 
     Returns
     -------
-    PeriodicSolution
-        As in :func:`solve_kink`.
+    PeriodicOrbit
+        As in :func:`solve_kink`: a :class:`PeriodicSolution` for ``e > 0``, a
+        :class:`~tps_solver.solvers.tps.stick.StickSolution` for ``e = 0``.
 
     Examples
     --------
@@ -530,6 +539,27 @@ def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmon
     >>> sol.converged, sol.checks.all_pass, float(sol.nodes[0]), sol.w_hat.shape
     (True, True, 0.0, (61, 8))
     """
+    if e is not None and t0 is None and float(e) == 0.0:
+        given = [name for name, value, default in (
+            ("tc_initial", tc_initial, None), ("r_max", r_max, defaults.R_MAX),
+            ("n_harmonics", n_harmonics, defaults.N_HARMONICS), ("n_nodes", n_nodes, defaults.N_NODES),
+            ("scheme", scheme, "newton"), ("paper_sign", paper_sign, 1), ("min_shift", min_shift, False),
+            ("continuation", continuation, True), ("tail_correction", tail_correction, True))
+            if value != default]
+        if given:
+            raise ValueError(f"{given[0]} applies to the single-contact TPS (e > 0); the e = 0 oscillon is "
+                             "solved by solve_stick_oscillon on a lattice (give lattice=, Gamma, M, r_core, "
+                             "tol, max_iter, callback)")
+        from tps_solver.solvers.tps.stick_kink import solve_stick_oscillon
+        kw = {} if max_iter == defaults.MAX_ITER else {"max_iter": max_iter}
+        if tol != defaults.TOL:
+            kw["tol"] = tol
+        if r_core != defaults.R_CORE:
+            kw["core_radius"] = r_core
+        return solve_stick_oscillon(Gamma, M, lattice=lattice, callback=callback, **kw)
+    if lattice is not None:
+        raise ValueError("lattice applies to the e = 0 oscillon only; for single-contact oscillons on a "
+                         "lattice use solve_lattice(lattice, ...)")
     r_max, n_nodes = _grid(r_max, n_nodes, "r_max")
     r_core = check_real(r_core, "r_core")
     if not 0.0 <= r_core < r_max:

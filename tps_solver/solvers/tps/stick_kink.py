@@ -32,12 +32,12 @@ from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
 from tps_solver.model.flat import FlatLayer
 from tps_solver.operators.lattice import Lattice
-from tps_solver.solvers.fda import kink_state, simulate
+from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.solvers.shooting.periodic import find_periodic_orbit
 from tps_solver.solvers.tps.stick import solve_stick_lattice
 from tps_solver.solvers.tps.stick_pattern import check_with_fda, pattern_from_fda
 
-__all__ = ["solve_stick_kink", "DEFAULT_LENGTH", "DEFAULT_SPACING", "FDA_TOL"]
+__all__ = ["solve_stick_kink", "solve_stick_oscillon", "DEFAULT_LENGTH", "DEFAULT_SPACING", "FDA_TOL"]
 
 #: Default lattice: spacing 1 on [-20, 20] (41 nodes).  Front widths at Gamma = 4.1 measured
 #: with one definition (validation/tps_stick.py, FRONT_WIDTH) change by < 0.03 between
@@ -88,9 +88,11 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         ``orbit`` (the shooting orbit), ``multipliers`` (ndarray of complex, the shooting
         orbit's Floquet multipliers, largest modulus first; None if shooting failed),
         ``fda_check`` (Bunch: ``periods``, ``contact_error``, ``liftoff_error``,
-        ``state_defect``, ``passed``) and ``seconds`` (Bunch of the stages' wall-clock
-        times).  ``checks.all_pass`` is False unless the TPS converged, its physical checks
-        pass and the FDA check passes.
+        ``state_defect``, ``passed``), ``localized`` (False when the orbit is uniform: the
+        front left the lattice), ``core_nodes`` (tuple of int: nodes on the shifted phase at
+        the start and after the settling run) and ``seconds`` (Bunch of the stages'
+        wall-clock times).  ``checks.all_pass`` is False unless the TPS converged, its
+        physical checks pass, the FDA check passes and the orbit is localized.
 
     Raises
     ------
@@ -110,35 +112,121 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
     >>> round(float(abs(sol.multipliers[0])), 3)
     0.031
     """
-    clock = time.perf_counter()
-    M = check_int(M, "M", minimum=2)
-    if M % 2:
-        raise ValueError(f"M must be even for a kink, got {M}")
-    Gamma = check_positive(Gamma, "Gamma")
-    periods = check_int(periods, "periods", minimum=0)
-    fda_periods = check_int(fda_periods, "fda_periods", minimum=1)
-    max_iter = check_int(max_iter, "max_iter", minimum=0)
+    M, periods, fda_periods, max_iter = _check_common(Gamma, M, periods, fda_periods, max_iter)
     if lattice is None:
         lattice = _default_lattice(DEFAULT_SPACING, DEFAULT_LENGTH)
     if not isinstance(lattice, Lattice) or lattice.geometry != "planar" or lattice.boundary != "neumann":
         raise ValueError("lattice must be a planar tps.Lattice with Neumann ends, e.g. "
                          "tps.Lattice.planar(n_nodes=41, length=40.0)")
+    flat = _far_field(Gamma, M)
+    t_start = float(flat.t0 + 0.25 * flat.period)
+    w0, z0 = kink_state(lattice, flat, t_start, width=2.0)
+    return _pipeline(lattice, flat, w0, z0, t_start, "kink", periods, max_iter, fda_periods, n_basis, tol,
+                     callback)
+
+
+def solve_stick_oscillon(Gamma=4.1, M=2, *, lattice=None, core_radius=10.0, periods=10, max_iter=80,
+                         fda_periods=10, n_basis=8, tol=1e-10, callback=None):
+    r"""The e = 0 oscillon on an axisymmetric lattice, or the statement that none was found.
+
+    The pipeline of :func:`solve_stick_kink` from the start of
+    :func:`tps_solver.solvers.fda.oscillon_state` (the far field's sticking orbit half a period
+    later inside ``core_radius``, a transition of width 2).  Time stepping shows e = 0 cores
+    shrinking on resolved lattices; when the core is gone after the settling run or the orbit
+    found is uniform, the result says so: ``localized`` False, ``checks.all_pass`` False, and the
+    message gives the core's node count before and after the settling run.
+
+    Parameters
+    ----------
+    Gamma, M, periods, max_iter, fda_periods, n_basis, tol, callback
+        As in :func:`solve_stick_kink`.
+    lattice : tps_solver.Lattice, optional
+        Axisymmetric lattice.  Default: uniform spacing 1 up to r = 40 (41 nodes).
+    core_radius : float
+        Radius of the phase-shifted core of the start, inside the lattice.
+
+    Returns
+    -------
+    StickSolution
+        As :func:`solve_stick_kink`'s, with ``localized`` (bool) and ``core_nodes`` (nodes on the
+        core's phase at the start and after the settling run).
+
+    Raises
+    ------
+    ValueError
+        As :func:`solve_stick_kink`, and for a ``core_radius`` outside the lattice.
+
+    Examples
+    --------
+    On a very coarse lattice (dr = 8) the lattice pins a core of radius 12:
+
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.axisymmetric(n_nodes=6, r_max=40.0, grid="uniform")
+    >>> sol = solve_stick_oscillon(4.1, lattice=lat, core_radius=12.0, periods=6, fda_periods=3)
+    >>> sol.converged, sol.localized, sol.checks.all_pass, sol.core_nodes
+    (True, True, True, (2, 2))
+    """
+    M, periods, fda_periods, max_iter = _check_common(Gamma, M, periods, fda_periods, max_iter)
+    if lattice is None:
+        lattice = Lattice.axisymmetric(n_nodes=41, r_max=40.0, grid="uniform")
+    if not isinstance(lattice, Lattice) or lattice.geometry != "axisymmetric":
+        raise ValueError("lattice must be an axisymmetric tps.Lattice, e.g. "
+                         "tps.Lattice.axisymmetric(n_nodes=41, r_max=40.0, grid='uniform')")
+    core_radius = check_positive(core_radius, "core_radius")
+    r_max = float(lattice.nodes[-1])
+    if core_radius >= r_max:
+        raise ValueError(f"core_radius must lie inside the lattice, 0 < core_radius < {r_max:g}, got {core_radius!r}")
+    flat = _far_field(Gamma, M)
+    t_start = float(flat.t0 + 0.25 * flat.period)
+    w0, z0 = oscillon_state(lattice, flat, t_start, r_core=core_radius, width=2.0)
+    return _pipeline(lattice, flat, w0, z0, t_start, "oscillon", periods, max_iter, fda_periods, n_basis,
+                     tol, callback)
+
+
+def _check_common(Gamma, M, periods, fda_periods, max_iter):
+    M = check_int(M, "M", minimum=2)
+    if M % 2:
+        raise ValueError(f"M must be even for a kink or an oscillon, got {M}")
+    check_positive(Gamma, "Gamma")
+    return (M, check_int(periods, "periods", minimum=0), check_int(fda_periods, "fda_periods", minimum=1),
+            check_int(max_iter, "max_iter", minimum=0))
+
+
+def _far_field(Gamma, M):
     try:
-        flat = FlatLayer(Gamma, M, e=0.0, pattern="stick")
+        return FlatLayer(Gamma, M, e=0.0, pattern="stick")
     except ValueError as exc:
         raise ValueError(f"Gamma = {Gamma:g} has no sticking flat orbit of period 2 pi M = {2 * M} pi "
                          f"at e = 0 ({exc}); the f/2 one exists for 3.857 <= Gamma <= 6.362") from None
-    T = flat.period
-    t_start = float(flat.t0 + 0.25 * T)
-    w0, z0 = kink_state(lattice, flat, t_start, width=2.0)
+
+
+def _shifted_nodes(flat, t, w, zeta):
+    """Nodes whose state (w, zeta) at time t is nearer the far field half a period later than now."""
+    a = np.hypot(w - flat.velocity(t), zeta - flat.height(t))
+    b = np.hypot(w - flat.velocity(t + 0.5 * flat.period), zeta - flat.height(t + 0.5 * flat.period))
+    return int(np.count_nonzero(b < a))
+
+
+def _uniform(sol, n_samples=64, rel=1e-3):
+    """Whether the orbit is the same at the two ends of the lattice over the period (no front left)."""
+    ts = sol.period * np.arange(n_samples) / n_samples
+    Z = np.asarray(sol.height(ts))
+    return bool(np.max(np.abs(Z[:, 0] - Z[:, -1])) <= rel * max(float(np.max(np.abs(Z))), 1e-300))
+
+
+def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_periods, n_basis, tol, callback):
+    clock = time.perf_counter()
+    Gamma, M, T = flat.Gamma, flat.M, flat.period
     seconds = Bunch()
     tick = time.perf_counter()
     guess, t_guess, run = (w0, z0), t_start, None
+    core = (_shifted_nodes(flat, t_start, w0, z0),)
     if periods:
         run = simulate(lattice, Gamma, 0.0, w0, z0, t_start=t_start, t_end=t_start + periods * T,
                        method="exact")
         if run.success:
             guess, t_guess = run, None
+            core += (_shifted_nodes(flat, run.t, run.w, run.zeta),)
     seconds.settle = time.perf_counter() - tick
     tick = time.perf_counter()
     orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=0.0, guess=guess, t_start=t_guess,
@@ -164,6 +252,8 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
     sol.spacing = float(lattice.spacing)
     sol.formulation = ("impact-and-stick TPS (solve_stick_lattice) on the contact pattern of a shooting "
                        "orbit (find_periodic_orbit after FDA settling)")
+    sol.localized = bool(sol.converged) and not _uniform(sol)
+    sol.core_nodes = core
     if sol.converged:
         chk = check_with_fda(sol, periods=fda_periods)
         t_end = chk.run.t
@@ -176,13 +266,19 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
             note += (f"the FDA started on the TPS orbit leaves it (event error "
                      f"{max(chk.contact_error, chk.liftoff_error):.2e}, state defect {defect:.2e} after "
                      f"{fda_periods} periods, tolerance {FDA_TOL:g}). ")
+        if not sol.localized:
+            moved = (f"; nodes on the shifted phase: {core[0]} at the start, {core[-1]} after {periods} "
+                     "settling periods" if len(core) > 1 else "")
+            note += (f"no {what} found: the orbit is uniform (the flat layer), the phase-shifted region "
+                     f"did not survive{moved}. ")
     else:
         sol.fda_check = Bunch(periods=0, contact_error=np.nan, liftoff_error=np.nan, state_defect=np.nan,
                               passed=False)
     seconds.fda_check = time.perf_counter() - tick
     seconds.total = time.perf_counter() - clock
     sol.seconds = seconds
-    sol.checks.all_pass = bool(sol.converged and sol.checks.all_pass and sol.fda_check.passed)
+    sol.checks.localized = sol.localized
+    sol.checks.all_pass = bool(sol.converged and sol.checks.all_pass and sol.fda_check.passed and sol.localized)
     if note:
         sol.message = note + sol.message
     return sol
