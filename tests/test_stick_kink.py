@@ -18,7 +18,7 @@ def _against_shooting(sol, ref):
     return float(dt.max()), float(dtau.max(initial=0.0))
 
 
-@pytest.mark.parametrize("n_nodes", [6, 21])
+@pytest.mark.parametrize("n_nodes", [6, pytest.param(21, marks=pytest.mark.slow)])
 def test_e0_kink_matches_shooting_and_fda(n_nodes):
     """dx = 8 and 2: contact and lift-off times against lattice_kink to 1e-9, |mu_1| to 1e-6, FDA stays on it."""
     lat = tps.Lattice.planar(n_nodes=n_nodes, length=40.0)
