@@ -351,6 +351,22 @@ def lattice_initial_tc(lattice, flat, tc_initial, r_core):
     return np.where(x < r_core, flat.t0 + flat.period / 2, flat.t0)
 
 
+def _inelastic_keywords(what, solver, max_iter, tol, options):
+    """Keywords for the e = 0 front door ``solver``; ValueError for a single-contact option given.
+
+    ``options`` holds (name, value, default) of the single-contact options; ``max_iter`` and
+    ``tol`` are passed on only when the caller changed them from the single-contact defaults.
+    """
+    given = [name for name, value, default in options if value != default]
+    if given:
+        raise ValueError(f"{given[0]} applies to the single-contact TPS (e > 0); the e = 0 {what} is "
+                         f"solved by {solver} on a lattice (give lattice=, Gamma, M, tol, max_iter, callback)")
+    kw = {} if max_iter == defaults.MAX_ITER else {"max_iter": max_iter}
+    if tol != defaults.TOL:
+        kw["tol"] = tol
+    return kw
+
+
 def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
                tc_initial=None, *, half_length=None, n_nodes=defaults.N_NODES, tol=defaults.TOL,
                max_iter=defaults.MAX_ITER, scheme="newton",
@@ -462,21 +478,14 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
     >>> k.converged, k.checks.all_pass, k.spacing, k.formulation.split(" (")[0]
     (True, True, 8.0, 'impact-and-stick TPS')
     """
-    if e is not None and t0 is None and float(e) == 0.0:
-        given = [name for name, value, default in (
+    if e is not None and t0 is None and check_real(e, "e") == 0.0:
+        kw = _inelastic_keywords("kink", "solve_stick_kink", max_iter, tol, (
             ("tc_initial", tc_initial, None), ("half_length", half_length, None), ("length", length, None),
             ("n_harmonics", n_harmonics, defaults.N_HARMONICS), ("n_nodes", n_nodes, defaults.N_NODES),
             ("scheme", scheme, "newton"), ("paper_sign", paper_sign, 1), ("min_shift", min_shift, False),
             ("continuation", continuation, True), ("tail_correction", tail_correction, True),
-            ("symmetry", symmetry, "kink")) if value != default]
-        if given:
-            raise ValueError(f"{given[0]} applies to the single-contact TPS (e > 0); the e = 0 kink is "
-                             "solved by solve_stick_kink on a lattice (give lattice=, Gamma, M, tol, "
-                             "max_iter, callback)")
+            ("symmetry", symmetry, "kink")))
         from tps_solver.solvers.tps.stick_kink import solve_stick_kink
-        kw = {} if max_iter == defaults.MAX_ITER else {"max_iter": max_iter}
-        if tol != defaults.TOL:
-            kw["tol"] = tol
         return solve_stick_kink(Gamma, M, lattice=lattice, callback=callback, **kw)
     if lattice is not None:
         raise ValueError("lattice applies to the e = 0 kink only; for single-contact kinks on a lattice "
@@ -539,21 +548,13 @@ def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmon
     >>> sol.converged, sol.checks.all_pass, float(sol.nodes[0]), sol.w_hat.shape
     (True, True, 0.0, (61, 8))
     """
-    if e is not None and t0 is None and float(e) == 0.0:
-        given = [name for name, value, default in (
+    if e is not None and t0 is None and check_real(e, "e") == 0.0:
+        kw = _inelastic_keywords("oscillon", "solve_stick_oscillon", max_iter, tol, (
             ("tc_initial", tc_initial, None), ("r_max", r_max, defaults.R_MAX),
             ("n_harmonics", n_harmonics, defaults.N_HARMONICS), ("n_nodes", n_nodes, defaults.N_NODES),
             ("scheme", scheme, "newton"), ("paper_sign", paper_sign, 1), ("min_shift", min_shift, False),
-            ("continuation", continuation, True), ("tail_correction", tail_correction, True))
-            if value != default]
-        if given:
-            raise ValueError(f"{given[0]} applies to the single-contact TPS (e > 0); the e = 0 oscillon is "
-                             "solved by solve_stick_oscillon on a lattice (give lattice=, Gamma, M, r_core, "
-                             "tol, max_iter, callback)")
+            ("continuation", continuation, True), ("tail_correction", tail_correction, True)))
         from tps_solver.solvers.tps.stick_kink import solve_stick_oscillon
-        kw = {} if max_iter == defaults.MAX_ITER else {"max_iter": max_iter}
-        if tol != defaults.TOL:
-            kw["tol"] = tol
         if r_core != defaults.R_CORE:
             kw["core_radius"] = r_core
         return solve_stick_oscillon(Gamma, M, lattice=lattice, callback=callback, **kw)
