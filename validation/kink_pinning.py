@@ -122,7 +122,8 @@ def main(argv=None):
         "The stable pinned e = 0 kink under refinement, by shooting (`tps.lattice_kink` from its default start, "
         "planar Neumann lattice of length 40, one BLAS thread) (`python -m validation.kink_pinning`). "
         "`centre`: the kink's mirror point c (zeta(x, t) = zeta(2c - x, t + T/2), to `symmetry_error`) is on a "
-        "node or midway between two. Pinning strength: 1 - |mu1|. Width: "
+        "node or midway between two. Pinning strength: 1 - |mu1| (negative: the orbit shooting converged to is "
+        "unstable, |mu1| > 1; Newton converges to saddles too). Width: "
         "`tps.front_width(orbit, instant='lower_far_field_top')`.", "",
         markdown_table(rows, [(k, k) for k in ("Gamma", "dx", "n_nodes", "converged", "nit", "residual", "centre",
                                               "symmetry_error", "mu1", "pinning", "width", "seconds")]), "",

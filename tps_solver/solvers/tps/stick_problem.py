@@ -25,6 +25,8 @@ __all__ = ["flat_stick_orbit"]
 KINDS = ("bounce", "stick")
 _COLLAPSE = 1e-10           # stick intervals shorter than this: an impact with w+ = 0
 _BREAK_MARGIN = 1e-12      # neighbour events closer than this to an end do not cut a segment
+_LIFT_MARGIN = 1e-6        # the same for a neighbour's lift-off (a kink of the reaction, not a jump: the
+                           # polynomial's error from not cutting within this of an end is ~ margin^2)
 _MEDIUM = 1e-6              # segments shorter than this: at most 2 reaction terms (was 1e-3: too coarse at dx = 0.5)
 _COLL_SCALE = 1e-2          # collocated w = 0 is divided by max(segment length, this)
 _BREAK_DISTANCE = 3          # cut stick intervals at events of nodes up to this graph distance
@@ -179,7 +181,8 @@ class StickProblem(Problem):
                     while tv + m * T < b0:
                         tm = tv + m * T
                         key = canonical(idx, m)
-                        if key not in own and a0 + _BREAK_MARGIN < tm < b0 - _BREAK_MARGIN:
+                        margin = _BREAK_MARGIN if key[0] < C else _LIFT_MARGIN
+                        if key not in own and a0 + margin < tm < b0 - margin:
                             pts.append((tm, key[0], key[1]))
                         m += 1
             pts.sort()
