@@ -62,6 +62,27 @@ def test_the_old_separable_form_loses_digits_where_the_kernel_does_not():
     assert abs(float(kernel(mb.lam[0], tau, T)) - h) <= 2 * EPS * abs(h)
 
 
+@pytest.mark.parametrize("scale", [1e-1, 1e-2, 1e-3, 1e-4])
+def test_separable_table_error_grows_like_inverse_lambda_T(scale):
+    """The separable tables on a lattice whose operator is scaled down (smallest |lambda T| = 7.7e-3 scale):
+    the kernel's error is O(eps/|lambda T|), the integral's O(eps T/|lambda T|^2) (documented in
+    separable_table), and the integral's is not smaller than that order's tenth at the smallest."""
+    mb = ModalBasis(tps.Lattice.planar(n_nodes=11, length=40.0 / math.sqrt(scale)), period=T)
+    nz = ~mb.zero_modes()
+    mu = float(np.min(np.abs(mb.lam[nz] * T)))
+    tau = np.linspace(0.01, T - 0.01, 50)[:, None]
+    errs = []
+    for W in (False, True):
+        A, B, C, D = mb.separable_table(W)
+        sep = A * np.exp(mb.lam * tau) + B + C * tau + D * tau ** 2
+        ref = kernel_integral(mb.lam, tau, T) + np.where(mb.zero_modes(), T / 12, 0.0) if W else kernel(mb.lam, tau, T)
+        errs.append(float(np.max(np.abs(sep - ref)[:, nz])))
+    assert errs[0] <= 64 * EPS / mu
+    assert errs[1] <= 64 * EPS * T / mu ** 2
+    if scale == 1e-4:
+        assert errs[1] >= 0.1 * EPS * T / mu ** 2          # the cancellation is real (7e-5 measured)
+
+
 @pytest.mark.parametrize("kind", ["planar", "axisymmetric"])
 def test_modal_basis_diagonalises_the_lattice(kind):
     lat = (tps.Lattice.planar(n_nodes=7, length=9.0) if kind == "planar"
