@@ -3,7 +3,7 @@
 On a lattice the front of a kink is pinned: a kink whose mirror point is a node and one whose
 mirror point is midway between two nodes are two different periodic orbits, and shooting
 (:func:`tps_solver.lattice_kink`: ten FDA periods of settling, then Newton--Krylov) ends on
-the stable one.  :func:`pinned_kink` computes it at one (Gamma, dx) and measures its symmetry
+one of them, stable or not (Newton converges to saddles too).  :func:`pinned_kink` computes it at one (Gamma, dx) and measures its symmetry
 centre (:func:`symmetry_centre`), its leading Floquet multiplier (pinning strength
 1 - |mu1|), its width and the time it took.  If the stable centring alternates between node
 and bond with dx, the width sequence need not be monotone.
@@ -57,7 +57,7 @@ def symmetry_centre(orbit, n_samples=64):
 
 
 def pinned_kink(Gamma, dx, length=LENGTH):
-    """The stable pinned kink by shooting at (Gamma, dx) (dict of measured numbers).
+    """The pinned kink shooting converges to at (Gamma, dx) (dict of measured numbers; |mu1| says if stable).
 
     :func:`tps_solver.lattice_kink` from its default start (front at x = 0 on a node); measured:
     the symmetry centre (on a node or between two), the leading multiplier (the pinning
@@ -74,7 +74,7 @@ def pinned_kink(Gamma, dx, length=LENGTH):
     if not orb.converged:
         row.update(mu1=None, pinning=None, width=None, centre=None, symmetry_error=None, message=orb.message)
         return row
-    (w,), _ = tps.front_width(orb, instant="lower_far_field_top", return_times=True)
+    (w,) = tps.front_width(orb, instant="lower_far_field_top")
     kind, xc, err = symmetry_centre(orb)
     mu1 = float(np.abs(np.asarray(orb.multipliers)[0]))
     row.update(mu1=mu1, pinning=1.0 - mu1, width=float(w), centre=kind, x_centre=xc, symmetry_error=err,
@@ -119,7 +119,7 @@ def main(argv=None):
         w, err = continuum_width(gr)
         est.append(dict(Gamma=G, dx_min=min(args.dx), width=w, error=err))
     text = [
-        "The stable pinned e = 0 kink under refinement, by shooting (`tps.lattice_kink` from its default start, "
+        "The pinned e = 0 kink that shooting converges to, under refinement, by shooting (`tps.lattice_kink` from its default start, "
         "planar Neumann lattice of length 40, one BLAS thread) (`python -m validation.kink_pinning`). "
         "`centre`: the kink's mirror point c (zeta(x, t) = zeta(2c - x, t + T/2), to `symmetry_error`) is on a "
         "node or midway between two. Pinning strength: 1 - |mu1| (negative: the orbit shooting converged to is "

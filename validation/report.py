@@ -48,7 +48,6 @@ SECTION_ORDER = (
     ("tps_stick", "The TPS for impact-and-stick contacts"),
     ("stick_kink", "The e = 0 kink by the front door (solve_kink)"),
     ("kink_pinning", "The e = 0 kink under refinement: the pinned kink, its pinning strength and width"),
-    ("kink_branch", "The e = 0 kink continued in Gamma"),
     ("inelastic_kinks", "The completely inelastic kinks (e = 0): Gamma table, refinement, oscillons"),
     ("inelastic_fronts", "The e = 0 fronts under refinement: why there is no continuum stick TPS yet"),
     ("basins", "Basins of the bouncing ball"),
