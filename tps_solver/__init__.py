@@ -6,6 +6,8 @@ model of vibrated granular layers: linear stability, kinks, and oscillons*.
 Public API (see ``README.md`` for a tour):
 
 * :class:`FlatLayer` -- the periodically bouncing flat layer, eqs. (17)-(19);
+* :class:`ViscoelasticRestitution`, :class:`PowerLawRestitution`, :class:`ConstantRestitution`,
+  :class:`CallableRestitution` -- restitution laws e(v), accepted wherever ``e`` is (point impacts);
 * :func:`secular_roots`, :func:`growth_rates` -- linear stability, eq. (35);
 * :func:`solve_kink`, :func:`solve_oscillon`, :func:`solve_lattice`,
   :class:`PeriodicSolution`, :func:`load` -- the spectral time-periodic solver
@@ -41,6 +43,10 @@ __version__ = "0.1.0"
 _LAZY = {
     "FlatLayer": "model.flat",
     "SoftFlatOrbit": "model.soft_flat",
+    "ConstantRestitution": "model.restitution",
+    "ViscoelasticRestitution": "model.restitution",
+    "PowerLawRestitution": "model.restitution",
+    "CallableRestitution": "model.restitution",
     "secular_roots": "model.linear_stability",
     "growth_rates": "model.linear_stability",
     "solve_kink": "solvers.tps",

@@ -50,6 +50,7 @@ SECTION_ORDER = (
     ("kink_pinning", "The e = 0 kink under refinement: the pinned kink, its pinning strength and width"),
     ("inelastic_kinks", "The completely inelastic kinks (e = 0): Gamma table, refinement, oscillons"),
     ("inelastic_fronts", "The e = 0 fronts under refinement: why there is no continuum stick TPS yet"),
+    ("restitution_flat", "The flat layer with a speed-dependent restitution e(v)"),
     ("basins", "Basins of the bouncing ball"),
     ("integrators", "Fast integrators: point impacts and the soft contact"),
     ("shooting", "Periodic orbits of any contact pattern by shooting"),

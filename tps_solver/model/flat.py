@@ -33,16 +33,34 @@ from tps_solver.core.costs import check_cost, harmonics_cost
 from tps_solver.core.pattern import ContactPattern
 from tps_solver.model.harmonics import flat_w_hat, height_from_velocity
 from tps_solver.model.flight import Flight, flight_velocity
+from tps_solver.model.restitution import RestitutionLaw, as_restitution
 from tps_solver.model.sticking import sticking_orbit, touch_orbits
 
 __all__ = ["FlatLayer"]
 
 _BRANCHES = ("stable", "unstable")
+_NO_LAW_CONTACT = ("sticking, chatter and touch-and-go orbits with a speed-dependent restitution law are "
+                   "not implemented (only the single bounce, pattern='bounce')")
 _PATTERNS = ("auto", "bounce", "stick", "touch")
 
 
 class _NoBounceOrbit(ValueError):
     """The single-bounce orbit (17)-(19) does not exist or is inadmissible."""
+
+
+def _law_speeds(Gamma, M, law, samples=257):
+    """The impact speeds v in [max(a - 1, 0), a + 1] with v (1 + e(v)) = 2a, a = T/(2 Gamma), ascending.
+
+    Sign changes on ``samples`` equispaced speeds, each refined by ``brentq``: roots closer than
+    the sampling step that cancel in pairs are missed (no law of this module has any)."""
+    a = math.pi * M / Gamma
+    lo, hi = max(a - 1.0, 0.0), a + 1.0
+    v = np.linspace(lo, hi, samples)
+    f = v * (1.0 + law(v)) - 2.0 * a
+    roots = [float(x) for x in v[f == 0.0]]
+    for i in np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0):
+        roots.append(brentq(lambda x: x * (1.0 + law(x)) - 2.0 * a, v[i], v[i + 1], xtol=1e-15, rtol=1e-15))
+    return sorted(r for r in roots if r > 0.0)
 
 
 def _check_order(M):
@@ -73,7 +91,11 @@ def _contact_orbit(Gamma, M, e, pattern, branch):
 def _bounce_branch_exists(Gamma, M, e, branch):
     """True if the single-bounce orbit of ``branch`` exists and is admissible."""
     try:
-        FlatLayer.__new__(FlatLayer)._init_bounce(Gamma, M, e, None, branch)
+        layer = FlatLayer.__new__(FlatLayer)
+        if isinstance(e, RestitutionLaw):
+            layer._init_bounce_law(Gamma, M, e, None, branch)
+        else:
+            layer._init_bounce(Gamma, M, e, None, branch)
     except ValueError:
         return False
     return True
@@ -82,6 +104,14 @@ def _bounce_branch_exists(Gamma, M, e, branch):
 def _pattern_table(Gamma, M, e, exclude=None):
     """{pattern: (exists, branches or reason)} for "bounce", "stick" and (e = 0) "touch"."""
     table = {}
+    if isinstance(e, RestitutionLaw):
+        if "bounce" != exclude:
+            br = [b for b in _BRANCHES if _bounce_branch_exists(Gamma, M, e, b)]
+            table["bounce"] = (bool(br), br if br else "no admissible single-bounce orbit with the law")
+        for pat in ("stick", "touch"):
+            if pat != exclude:
+                table[pat] = (False, _NO_LAW_CONTACT)
+        return table
     for pat in ("bounce", "stick", "touch"):
         if pat == exclude:
             continue
@@ -126,9 +156,15 @@ class FlatLayer:
     M : int, optional
         Subharmonic order, period :math:`T = 2\pi M` (default 2; integral
         floats such as 2.0 are accepted).
-    e : float, optional
+    e : float or RestitutionLaw, optional
         Restitution in [0, 1).  Exactly one of ``e`` and ``t0`` is normally
-        given; if both are, they must satisfy (19).
+        given; if both are, they must satisfy (19).  A speed-dependent law
+        (:mod:`tps_solver.model.restitution`) gives the single bounce only:
+        (19) becomes :math:`v(1 + e(v)) = T/\Gamma` for the impact speed
+        :math:`v = T/2\Gamma + \cos t_0` (the fastest root; all of them in
+        :meth:`bounce_orbits`), and :attr:`e` is :math:`e(v)`; a
+        :class:`~tps_solver.model.restitution.ConstantRestitution` is its
+        float, bit for bit.
     t0 : float, optional
         Launch (contact) phase of the single-bounce orbit.  The paper's preset
         is ``t0 = 0``, which fixes ``e`` through (19) and sits exactly at the
@@ -199,6 +235,10 @@ class FlatLayer:
     ('stick', 'TS', ['liftoff', 'impact', 'liftoff', 'impact', 'stick'])
     >>> fl.floquet_multipliers()
     array([0.+0.j, 0.+0.j])
+    >>> from tps_solver.model.restitution import PowerLawRestitution
+    >>> fl = FlatLayer(2.2, 2, e=PowerLawRestitution(e0=0.3, v0=6.0))   # e tunes itself to the forcing
+    >>> round(fl.e, 6), round(fl.impact_velocity, 6), fl.is_stable
+    (0.503001, -3.800388, True)
     """
 
     def __init__(self, Gamma, M=2, e=None, t0=None, branch="stable", pattern="auto"):
@@ -208,6 +248,18 @@ class FlatLayer:
         pattern = check_choice(pattern, "pattern", _PATTERNS)
         if e is None and t0 is None:
             raise ValueError("e or t0 must be given (e in [0, 1), or t0 with e from (19))")
+        self._law = None
+        if isinstance(e, RestitutionLaw) and e.constant:
+            e = e.e                       # a constant law is the float, bit for bit
+        if isinstance(e, RestitutionLaw):
+            self._inputs = {"Gamma": Gamma, "M": M, "e": e, "t0": t0, "branch": branch, "pattern": pattern}
+            if pattern in ("stick", "touch"):
+                raise ValueError(f"pattern={pattern!r} is not available with {e!r}: {_NO_LAW_CONTACT}")
+            try:
+                self._init_bounce_law(Gamma, M, e, t0, branch)
+            except _NoBounceOrbit as exc:
+                raise ValueError(f"{exc} ({_NO_LAW_CONTACT})") from None
+            return
         if e is not None:
             e = check_restitution(e, "e")
         # the constructor inputs, so that a saved layer is rebuilt bit for bit (archive codec below)
@@ -290,6 +342,85 @@ class FlatLayer:
         self.pattern = "bounce"
         self._orbit = None
         self._check_admissible()
+
+    def _init_bounce_law(self, Gamma, M, law, t0, branch):
+        r"""The single bounce with a speed-dependent law: (19) becomes :math:`v\,(1 + e(v)) = T/\Gamma`
+        for the impact speed :math:`v = T/2\Gamma + \cos t_0`, and :math:`W_0 = e(v)\,v`."""
+        T = 2.0 * math.pi * M
+        a = T / (2.0 * Gamma)
+        if t0 is not None:
+            t0 = check_real(t0, "t0")
+            t0 = math.atan2(math.sin(t0), math.cos(t0))
+            v = a + math.cos(t0)
+            if v <= 0.0:
+                raise ValueError(f"t0 = {t0!r} gives a non-positive impact speed v = T/(2 Gamma) + cos t0 = {v:.6g}")
+            defect = v * (1.0 + law(v)) - 2.0 * a
+            if abs(defect) > 1e-12 * max(1.0, 2.0 * a):
+                raise ValueError(f"t0 and the law are inconsistent: v (1 + e(v)) - T/Gamma = {defect:.3g} at "
+                                 f"t0 = {t0!r} (v = {v:.15g}, {law!r}); FlatLayer.bounce_orbits lists the t0 "
+                                 "that are consistent")
+        else:
+            speeds = _law_speeds(Gamma, M, law)
+            if not speeds:
+                raise _NoBounceOrbit(
+                    f"no period-{M} single bounce for Gamma = {Gamma} with {law!r}: no impact speed v in "
+                    f"[T/(2 Gamma) - 1, T/(2 Gamma) + 1] solves v (1 + e(v)) = T/Gamma")
+            v = speeds[-1]                                  # the fastest (see bounce_orbits)
+            c = min(max(v - a, -1.0), 1.0)
+            t0 = math.acos(c) if branch == "stable" else -math.acos(c)
+        self._law = law
+        self.Gamma, self.M, self.period, self.t0 = Gamma, M, T, t0
+        self.W0 = a - math.cos(t0)
+        self.e = law(v)
+        self.branch = "stable" if t0 >= 0 else "unstable"
+        self.pattern = "bounce"
+        self._orbit = None
+        self._check_admissible()
+
+    @property
+    def restitution(self):
+        """The restitution law (a :class:`~tps_solver.model.restitution.ConstantRestitution` of
+        :attr:`e` unless a speed-dependent law was given; then :attr:`e` is its value at the
+        orbit's impact speed)."""
+        return self._law if getattr(self, "_law", None) is not None else as_restitution(self.e)
+
+    @staticmethod
+    def bounce_orbits(Gamma, M=2, e=0.45):
+        r"""Every single-bounce orbit of (Gamma, M) with the restitution ``e`` (float or law).
+
+        A speed-dependent law can have several impact speeds with :math:`v(1 + e(v)) = T/\Gamma`
+        (the constructor takes the fastest); each gives the two launch phases
+        :math:`\pm\arccos(v - T/2\Gamma)`.  Inadmissible orbits are left out.
+
+        Returns
+        -------
+        orbits : list of FlatLayer
+            Sorted by impact speed, the stable-side phase (t0 >= 0) first.
+
+        Examples
+        --------
+        >>> [round(o.t0, 6) for o in FlatLayer.bounce_orbits(2.5, 2, 0.45)]
+        [0.30678, -0.30678]
+        """
+        Gamma = check_positive(Gamma, "Gamma")
+        M = _check_order(M)
+        law = as_restitution(e)
+        a = math.pi * M / Gamma
+        speeds = [a * 2.0 / (1.0 + law.e)] if law.constant else _law_speeds(Gamma, M, law)
+        out = []
+        for v in speeds:
+            c = v - a
+            if abs(c) > 1.0:
+                continue
+            for sign in (1.0, -1.0):
+                try:
+                    out.append(FlatLayer(Gamma, M, e=law if not law.constant else law.e, t0=sign * math.acos(c),
+                                         pattern="bounce"))
+                except ValueError:
+                    pass
+                if c == 1.0:
+                    break
+        return out
 
     # ------------------------------------------------------------------ orbit
     def __repr__(self):
@@ -550,6 +681,8 @@ class FlatLayer:
         if d is None:
             raise ValueError("no impact within 4 periods of t")
         t_next = t + d
+        if self._law is not None:
+            return t_next, self._law.rebound(-flight_velocity(t_next, t, v, self.Gamma))
         return t_next, -self.e * flight_velocity(t_next, t, v, self.Gamma)
 
     def impact_map_jacobian(self, t=None, v=None):
@@ -562,7 +695,9 @@ class FlatLayer:
             \partial_t t' = (v + \Delta g(t))/u, \quad \partial_v t' = -\Delta/u,\\
             dv' = -e\,[dv - g(t)\,dt + g(t')\,dt'],
 
-        whence :math:`\det J = -e v/u`, which equals :math:`e^2` on the periodic orbit.
+        whence :math:`\det J = -e v/u`, which equals :math:`e^2` on the periodic orbit.  With a
+        speed-dependent law (:mod:`tps_solver.model.restitution`) e is replaced by
+        :math:`\phi'(|u|) = e(|u|) + |u|\,e'(|u|)` and :math:`\det J = e(v)\,\phi'(v)` on the orbit.
 
         Returns
         -------
@@ -580,6 +715,8 @@ class FlatLayer:
         G, e = self.Gamma, self.e
         d = t_next - t
         u = flight_velocity(t_next, t, v, G)
+        if self._law is not None:
+            e = self._law.rebound_derivative(-u)        # phi'(|u|) in place of e
         g0 = math.sin(t) - 1.0 / G
         g1 = math.sin(t_next) - 1.0 / G
         dtt = (v + d * g0) / u
@@ -638,8 +775,8 @@ class FlatLayer:
         """
         Gamma = check_positive(Gamma, "Gamma")
         M = _check_order(M)
-        e = check_restitution(e, "e")
-        return _pattern_table(Gamma, M, e)
+        law = as_restitution(e)
+        return _pattern_table(Gamma, M, law.e if law.constant else law)
 
     @staticmethod
     def stability_window(e, M):
@@ -652,8 +789,11 @@ class FlatLayer:
 
         Parameters
         ----------
-        e : float
-            Restitution in (0, 1).
+        e : float or RestitutionLaw
+            Restitution in (0, 1), or a speed-dependent law: then the lower end is the fold
+            :math:`v(1 - e(v)) = 2` (:math:`\cos t_0 = 1`), and the upper end the first
+            :math:`\Gamma` above it where the largest multiplier of the stable branch reaches
+            modulus 1 (scanned in steps of 1 %, refined by ``brentq``).
         M : int
 
         Returns
@@ -666,7 +806,10 @@ class FlatLayer:
         >>> round(lo, 6)
         2.383277
         """
-        e = check_restitution(e, "e")
+        law = as_restitution(e)
+        if not law.constant:
+            return _law_stability_window(law, check_int(M, "M", minimum=1))
+        e = check_restitution(law.e, "e")
         if e == 0.0:
             raise ValueError("e must be > 0 for the stability window (e = 0 orbits stick)")
         M = check_int(M, "M", minimum=1)
@@ -689,13 +832,72 @@ class FlatLayer:
         return low, high
 
 
+def _law_stability_window(law, M):
+    """:meth:`FlatLayer.stability_window` for a speed-dependent law."""
+    T = 2.0 * math.pi * M
+
+    def fold(v):
+        return v * (1.0 - law(v)) - 2.0
+
+    hi = 1.0
+    while fold(hi) < 0.0:
+        hi *= 2.0
+        if hi > 1e6:
+            raise ValueError(f"no fold below impact speed 1e6 for {law!r}: v (1 - e(v)) stays below 2")
+    v_f = brentq(fold, 0.0, hi, xtol=1e-15, rtol=1e-15)
+    low = T / (v_f * (1.0 + law(v_f)))
+
+    def mu(G):
+        try:
+            return float(np.max(np.abs(FlatLayer(G, M, e=law, pattern="bounce").floquet_multipliers())))
+        except ValueError:
+            return math.nan
+
+    G = low * (1.0 + 1e-6)
+    if not mu(G) < 1.0:
+        raise ValueError(f"no stable interval found above the fold Gamma = {low:.12g} for {law!r}")
+    step = 1.01
+    while True:
+        m = mu(G * step)
+        if not m < 1.0:
+            break
+        G *= step
+        if G > 1e4:
+            raise ValueError(f"the stable branch of {law!r} stays stable up to Gamma = 1e4")
+    if math.isnan(m):
+        lo_g, hi_g = G, G * step                      # the orbit ceased to exist: bisect existence
+        while hi_g - lo_g > 1e-13 * hi_g:
+            mid = 0.5 * (lo_g + hi_g)
+            lo_g, hi_g = (mid, hi_g) if mu(mid) < 1.0 else (lo_g, mid)
+        return low, lo_g
+    return low, brentq(lambda g: mu(g) - 1.0, G, G * step, xtol=1e-14, rtol=1e-15)
+
+
 # ------------------------------------------------------------------ file codec (tps_solver.core.archive)
 def _encode_flat(layer):
-    return {"inputs": dict(layer._inputs), "e": layer.e, "t0": layer.t0}
+    inputs = dict(layer._inputs)
+    law = inputs["e"]
+    if isinstance(law, RestitutionLaw):
+        if not law.parameters:
+            raise ValueError(f"a FlatLayer with {law!r} cannot be saved (a callable law has no parameters "
+                             "to store)")
+        inputs["e"] = {"law": type(law).__name__, "parameters": dict(law.parameters)}
+    return {"inputs": inputs, "e": layer.e, "t0": layer.t0}
+
+
+def _decode_law(spec):
+    from tps_solver.model import restitution
+    cls = getattr(restitution, spec["law"], None)
+    if not (isinstance(cls, type) and issubclass(cls, RestitutionLaw)) or spec["law"] == "CallableRestitution":
+        raise ValueError(f"unknown restitution law {spec['law']!r} in the stored layer")
+    return cls(**spec["parameters"])
 
 
 def _decode_flat(data):
-    layer = FlatLayer(**data["inputs"])
+    inputs = dict(data["inputs"])
+    if isinstance(inputs.get("e"), dict):
+        inputs["e"] = _decode_law(inputs["e"])
+    layer = FlatLayer(**inputs)
     if layer.e != data["e"] or layer.t0 != data["t0"]:
         raise ValueError(f"inconsistent: the stored layer has e = {data['e']!r}, t0 = {data['t0']!r}, its "
                          f"inputs give e = {layer.e!r}, t0 = {layer.t0!r}")

@@ -15,6 +15,7 @@ from tps_solver.core.progress import progress_state
 from tps_solver.core.costs import blas_threads, check_cost, simulate_cost, small_dense
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda.common import SimulationResult, check_time_window, stack_samples
+from tps_solver.model.restitution import as_restitution
 from tps_solver.solvers.fda.events import EventLog, apply_contacts, apply_liftoff, make_impact_rule, pulled_off
 from tps_solver.solvers.fda.exact import ExactPropagator
 from tps_solver.solvers.fda.ode import OdePropagator
@@ -39,8 +40,9 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     lattice : Lattice
     Gamma : float
         Plate acceleration, > 0.
-    e : float
-        Restitution in [0, 1).
+    e : float or RestitutionLaw
+        Restitution in [0, 1), or a speed-dependent law (:mod:`tps_solver.model.restitution`),
+        evaluated at each landing's impact speed (impulsive methods only).
     w0, zeta0 : array_like of float, shape (n_nodes,)
         Initial velocity and height (``zeta0 >= 0`` for the impulsive methods; a soft
         contact may start compressed, ``zeta0 < 0``).
@@ -126,7 +128,12 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     method = check_choice(method, "method", tuple(METHODS))
     cls = METHODS[method]
     Gamma = check_positive(Gamma, "Gamma")
-    e = check_restitution(e, "e")
+    law = as_restitution(e)
+    e = check_restitution(law.e, "e") if law.constant else law
+    if not law.constant and not cls.impulsive:
+        raise ValueError(f"e must be a constant restitution with method={method!r} (the soft contact's "
+                         f"restitution is a property of its damped oscillator, not of the impact speed), "
+                         f"got {law!r}; use method='point' or 'exact' for a speed-dependent law")
     n = lattice.n_nodes
     w = check_array(w0, "w0", shape=(n,))
     zeta = check_array(zeta0, "zeta0", shape=(n,))

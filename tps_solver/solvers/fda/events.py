@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from tps_solver.core.checks import check_choice, check_nonnegative, check_positive
+from tps_solver.model.restitution import RestitutionLaw
 
 __all__ = ["EVENT_DTYPE", "point_impact", "diffused_impact", "make_impact_rule", "EventLog",
            "event_sets", "apply_contacts", "apply_liftoff", "pulled_off"]
@@ -44,6 +45,30 @@ _EPS = np.finfo(float).eps
 _EPS64 = float(64 * _EPS)
 
 
+def restitution_at(e, w_contact):
+    """The restitution of each landing: ``e`` itself (float), or a law at the impact speeds ``-w_contact``.
+
+    Parameters
+    ----------
+    e : float or RestitutionLaw
+    w_contact : ndarray of float
+        Pre-impact velocities of the landing nodes (<= 0).
+
+    Returns
+    -------
+    e : float or ndarray of float, shape of ``w_contact``
+
+    Examples
+    --------
+    >>> from tps_solver.model.restitution import PowerLawRestitution
+    >>> restitution_at(PowerLawRestitution(0.5, 4.0), np.array([-4.0, -0.0])).tolist()
+    [0.5, 1.0]
+    """
+    if isinstance(e, RestitutionLaw):
+        return e(np.maximum(-np.asarray(w_contact, dtype=float), 0.0))
+    return e
+
+
 def point_impact(w_minus, contact, e, lattice, free):
     """Restitution (54): ``w+ = -e w-`` on the contact set, other nodes unchanged.
 
@@ -51,7 +76,8 @@ def point_impact(w_minus, contact, e, lattice, free):
     ----------
     w_minus : ndarray of float, shape (n_nodes,)
     contact : ndarray of int
-    e : float
+    e : float or RestitutionLaw
+        A law is evaluated at each node's impact speed ``-w_minus``.
     lattice : Lattice
     free : ndarray of bool, shape (n_nodes,)
 
@@ -65,7 +91,7 @@ def point_impact(w_minus, contact, e, lattice, free):
     array([-1.,  1.])
     """
     w = w_minus.copy()
-    w[contact] = -e * w_minus[contact]
+    w[contact] = -restitution_at(e, w_minus[contact]) * w_minus[contact]
     return w
 
 
@@ -86,7 +112,8 @@ def diffused_impact(w_minus, contact, e, lattice, free, rho_c):
     True
     """
     d = np.abs(lattice.nodes[:, None] - lattice.nodes[contact][None, :])
-    kick = -(1.0 + e) * (np.exp(-d / rho_c) @ w_minus[contact])
+    wc = w_minus[contact]
+    kick = -(np.exp(-d / rho_c) @ ((1.0 + restitution_at(e, wc)) * wc))
     w = w_minus.copy()
     w[free] += kick[free]
     return w

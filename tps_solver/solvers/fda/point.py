@@ -488,6 +488,13 @@ class PointIntegrator(Integrator):
         carry = self._carry
         if carry is not None and carry[0] == t and carry[1] == key:
             w_prev, c_prev = carry[2], carry[3]
+            if not isinstance(self.e, float):          # a speed-dependent law: no common factor
+                moved = wF != w_prev
+                a = c_prev.copy()
+                if moved.any():
+                    K = np.flatnonzero(moved)
+                    a += fs.Vinv[:, K] @ (wF[K] - w_prev[K])
+                return a
             flipped = wF != -self.e * w_prev
             n2 = np.count_nonzero(flipped)
             if n2 == 0 and wF.any():

@@ -26,6 +26,7 @@ import numpy as np
 from scipy.sparse.linalg import LinearOperator
 
 from tps_solver.core.problem import Problem
+from tps_solver.model.restitution import RestitutionLaw
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 
 __all__ = ["PeriodMap", "PeriodMapError"]
@@ -102,8 +103,8 @@ class PeriodMap(Problem):
     def __init__(self, lattice, Gamma, e, period, t_start, *, stuck=None, method="exact",
                  max_events_per_period=None, fd_step=1e-7, require_free=False, **simulate_kw):
         n = lattice.n_nodes
-        self.lattice, self.Gamma, self.e, self.T, self.t_s = lattice, float(Gamma), float(e), float(period), \
-            float(t_start)
+        self.lattice, self.Gamma, self.T, self.t_s = lattice, float(Gamma), float(period), float(t_start)
+        self.e = e if isinstance(e, RestitutionLaw) else float(e)
         self.stuck = np.zeros(n, bool) if stuck is None else np.asarray(stuck, dtype=bool).copy()
         self.free = ~self.stuck
         self.m = int(np.count_nonzero(self.free))
@@ -117,7 +118,9 @@ class PeriodMap(Problem):
     # ------------------------------------------------------------ parameters
     @property
     def parameters(self):
-        """``Gamma``, ``e`` and, for the soft contact, ``cutoff``."""
+        """``Gamma``, ``e`` (or a speed-dependent law's own parameters) and, for the soft contact, ``cutoff``."""
+        if isinstance(self.e, RestitutionLaw):
+            return {"Gamma": self.Gamma, **self.e.parameters}
         out = {"Gamma": self.Gamma, "e": self.e}
         if self.method == "soft":
             out["cutoff"] = float(self.kw["cutoff"])
@@ -131,7 +134,12 @@ class PeriodMap(Problem):
         kw = dict(self.kw)
         if "cutoff" in values:
             kw["cutoff"] = float(values["cutoff"])
-        return PeriodMap(self.lattice, values.get("Gamma", self.Gamma), values.get("e", self.e), self.T,
+        if isinstance(self.e, RestitutionLaw):
+            changed = {k: v for k, v in values.items() if k != "Gamma"}
+            e = self.e.at(**changed) if changed else self.e
+        else:
+            e = values.get("e", self.e)
+        return PeriodMap(self.lattice, values.get("Gamma", self.Gamma), e, self.T,
                          self.t_s, stuck=self.stuck, method=self.method, max_events_per_period=self.max_events,
                          fd_step=self.fd_step, require_free=self.require_free, **kw)
 

@@ -67,6 +67,7 @@ from tps_solver.core import archive
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_bool, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.costs import check_cost
+from tps_solver.model.restitution import as_restitution
 from tps_solver.core.newton import newton
 from tps_solver.core.progress import progress_state
 from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
@@ -407,8 +408,9 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         Plate acceleration, > 0.
     M : int
         Period :math:`T = 2\pi M` of the orbit, >= 1.
-    e : float
-        Restitution in [0, 1) (in (0, 1) for the soft contact).
+    e : float or RestitutionLaw
+        Restitution in [0, 1) (in (0, 1) for the soft contact), or a speed-dependent law
+        (:mod:`tps_solver.model.restitution`; point impacts only).
     cutoff : float, optional
         Soft-contact length :math:`\ell > 0`; selects ``method="soft"``.  None: point impacts (54).
     guess : tuple, SimulationResult, PeriodicSolution, LatticeCycle, FlatLayer or ShootingOrbit, optional
@@ -499,7 +501,8 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         raise ValueError(f"lattice must be a tps_solver.Lattice, got {type(lattice).__name__}")
     Gamma = check_positive(Gamma, "Gamma")
     M = check_int(M, "M", minimum=1)
-    e = check_restitution(e, "e")
+    law = as_restitution(e)
+    e = check_restitution(law.e, "e") if law.constant else law
     if cutoff is not None:
         cutoff = check_positive(cutoff, "cutoff")
     if method is None:

@@ -37,6 +37,7 @@ import numpy as np
 from tps_solver.core import archive as io
 from tps_solver.core import defaults
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
+from tps_solver.model.restitution import as_restitution
 from tps_solver.core.costs import blas_threads, check_cost, cycle_cost, small_dense
 from tps_solver.operators.lattice import Lattice
 from tps_solver.operators.modal import ModalBasis, kernel, kernel_integral
@@ -226,7 +227,11 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
         for spacings above about 13.6 (:data:`tps_solver.core.defaults.FOLD_SPACING_LATTICE`),
         e.g. ``Lattice.planar(**tps_solver.core.defaults.COARSE_LATTICE)``.
     Gamma, M, e, t0 : as in :func:`~tps_solver.solve_kink`.
-        Default: ``e = 0.45`` (neither ``e`` nor ``t0`` given).
+        Default: ``e = 0.45`` (neither ``e`` nor ``t0`` given).  ``e`` may be a restitution law
+        (:mod:`tps_solver.model.restitution`): every node of a single-contact cycle takes the
+        impulse T/Gamma per period, so every node lands at the flat orbit's impact speed and the
+        cycle is that of the constant ``e = e(v_flat)`` (``cyc.e``); the law changes only the
+        multipliers (through :math:`\phi'`, in the FDA's).
     tc_initial : None, array_like (n_nodes,) or callable
         Default as in :func:`~tps_solver.solvers.tps.solve_lattice` (kink step or oscillon core).
     r_core : float
@@ -263,7 +268,8 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
     Gamma = check_positive(Gamma, "Gamma")
     M = check_int(M, "M", minimum=1)
     if e is not None:
-        e = check_restitution(e, "e")
+        law = as_restitution(e)
+        e = check_restitution(law.e, "e") if law.constant else law
     flat = bouncing_far_field(Gamma, M, **defaults.model(e, t0))
     tol = check_positive(tol, "tol")
     max_iter = check_int(max_iter, "max_iter", minimum=0)
