@@ -178,12 +178,15 @@ def test_law_stability_window_ends(law):
 
 
 def test_law_layer_errors_and_patterns():
-    with pytest.raises(ValueError, match="not available with"):
+    with pytest.raises(ValueError, match=r"the sticking orbit has period 2\*pi\*5"):
         FlatLayer(4.1, 2, e=VISCO, pattern="stick")
+    with pytest.raises(ValueError, match="touch-and-go orbits need e = 0"):
+        FlatLayer(4.1, 2, e=VISCO, pattern="touch")
     with pytest.raises(ValueError, match="inconsistent"):
         FlatLayer(2.5, 2, e=VISCO, t0=0.1)
     table = FlatLayer.patterns(2.5, 2, VISCO)
     assert table["bounce"] == (True, ["stable", "unstable"]) and table["stick"][0] is False
+    assert FlatLayer.patterns(4.6, 2, ViscoelasticRestitution(5.0))["stick"] == (True, ["stable"])
     orbits = FlatLayer.bounce_orbits(2.5, 2, VISCO)
     assert [o.branch for o in orbits] == ["stable", "unstable"]
     again = FlatLayer(2.5, 2, e=VISCO, t0=orbits[0].t0)
@@ -293,3 +296,68 @@ def test_restitution_flat_study_rows():
         assert r["end"] == "period doubling" and r["width_ratio"] < 1.0
         assert (r["const_low"], r["const_high"]) == FlatLayer.stability_window(r["e_mid"], 2)
     assert rows[0]["Gamma_low"] < 2.5 < rows[0]["Gamma_high"]
+
+
+# ----------------------------------------------------------------------------- the ball and its basins
+@pytest.mark.parametrize("w0, z0", [(3.0, 0.5), (1.2, 2.0), (0.2, 0.01)])
+def test_ball_with_law_closed_form_against_simulate(w0, z0):
+    # the one-node ball's closed form (model/ball.py) and the lattice FDA on a uniform lattice
+    # (events.point_impact) apply the law independently; 5 forcing cycles, chatter included
+    from tps_solver.analyses.basins import ball_cycle
+    law = ViscoelasticRestitution(0.6)
+    a, ev_a = ball_cycle(2.5, law, w0, z0, n_cycles=5)
+    b, ev_b = ball_cycle(2.5, law, w0, z0, n_cycles=5, integrator="simulate")
+    assert [k for _, k in ev_a] == [k for _, k in ev_b]
+    assert np.max(np.abs(np.array([t for t, _ in ev_a]) - np.array([t for t, _ in ev_b]))) < 1e-11
+    assert np.max(np.abs(a - b)) < 1e-10
+
+
+def test_ball_keeps_the_law_orbit_and_basins_save():
+    import tps_solver as tps
+    from tps_solver.analyses.basins import ball_cycle
+    fl = FlatLayer(2.5, 2, e=ViscoelasticRestitution(0.6))
+    ts = fl.t0 + 1.0
+    x, ev = ball_cycle(2.5, fl.restitution, fl.velocity(ts), fl.height(ts), n_cycles=4, t_section=ts)
+    assert np.max(np.abs(x[4] - x[0])) < 1e-12 and [k for _, k in ev] == ["impact", "impact"]
+    with pytest.raises(ValueError, match="constant restitution with model='soft'"):
+        tps.flat_basins(2.5, fl.restitution, model="soft", cutoff=0.3, n_samples=2)
+
+
+# ----------------------------------------------------------------------------- chatter and sticking with a law
+def test_chatter_tail_against_direct_summation():
+    # constant gravity: the launch speeds follow u -> phi(u); the tail's closed end (iterated to
+    # 1e-15, then the asymptote u^(1-p)/(c(1-p)) + u/2) against brute-force summation to u < 1e-22
+    law = ViscoelasticRestitution(5.0)
+    v, gam = 1e-4, 0.8
+    total, u = 0.0, v
+    while u > 1e-22:
+        total += u
+        u = law.rebound(u)
+    D, n = law.chatter_tail(v, gam)
+    assert n == math.inf
+    # the brute-force sum stops at 1e-22 (its remainder ~ (1e-22)^0.8 / (c 0.8) ~ 1e-18, 1e-14 of the sum)
+    assert D == pytest.approx(2.0 * total / gam, rel=1e-12)
+    D_const, _ = ConstantRestitution(0.5).chatter_tail(v, gam)
+    assert D_const == pytest.approx(2.0 * v / (gam * 0.5), rel=1e-14)
+
+
+def test_law_sticking_orbit_against_the_ball():
+    # FlatLayer(pattern="stick") with a law (bounces and a chatter summed by the law) against the
+    # one-node ball integrated event by event (model/ball.py; rest below stick_velocity = 1e-9)
+    from tps_solver.analyses.basins import ball_cycle
+    law = ViscoelasticRestitution(5.0)
+    fl = FlatLayer(4.6, 2, e=law, pattern="stick")
+    assert fl.contact_sequence == "BC" and fl.chatter_error < 1e-13
+    assert np.array_equal(fl.floquet_multipliers(), np.zeros(2, complex))
+    x, ev = ball_cycle(4.6, law, 0.0, 0.0, n_cycles=2, t_section=fl.t0, stuck=True, stick_velocity=1e-9)
+    impacts_orbit = [t for t, k in fl.events if k == "impact"]
+    impacts_ball = [t for t, k in ev if k == "impact"]
+    n = len(impacts_orbit)
+    assert n > 20 and len(impacts_ball) >= n - 5
+    m = min(n, len(impacts_ball)) - 5            # all but the last few (the ball's cut-off at 1e-9)
+    assert np.max(np.abs(np.array(impacts_orbit[:m]) - np.array(impacts_ball[:m]))) < 1e-10
+    stick_orbit = [t for t, k in fl.events if k == "stick"][0]
+    stick_ball = [t for t, k in ev if k == "stick"][0]
+    assert abs(stick_orbit - stick_ball) < 1e-6        # the tail below 1e-9 lasts about 1e-7
+    # after one period T = 4 pi from the lift-off the ball is at rest again (it lifts off at t0 + T)
+    assert np.array_equal(x[-1], [0.0, 0.0]) and [k for _, k in ev].count("liftoff") == 1

@@ -78,6 +78,7 @@ from tps_solver.core.bunch import Bunch
 from tps_solver.core.costs import check_cost
 from tps_solver.core.newton import newton
 from tps_solver.core.problem import Inadmissible, Problem
+from tps_solver.model.restitution import RestitutionLaw, as_restitution
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.solvers.shooting.floquet import multipliers as floquet_multipliers
 from tps_solver.model.ball import CONTACT, FREE, MODE_NAMES, STUCK, ClosedFormBall
@@ -160,7 +161,8 @@ def _validate_basins(f):
     f.array("labels", "iu", shape=(n,))
     f.array("initial_states", "f", shape=(n, 2), finite=True)
     f.float("Gamma")
-    f.float("e")
+    if not isinstance(f.get("e"), RestitutionLaw):
+        f.float("e")
 
 
 archive.register("BasinResult", BasinResult, validate=_validate_basins)
@@ -436,8 +438,12 @@ def _pattern(impacts, sticks):
 
 def _check_model(Gamma, e, model, cutoff):
     Gamma = check_positive(Gamma, "Gamma")
-    e = check_restitution(e, "e")
+    law = as_restitution(e)
+    e = check_restitution(law.e, "e") if law.constant else law
     model = check_choice(model, "model", MODELS)
+    if not law.constant and model != "point":
+        raise ValueError(f"e must be a constant restitution with model={model!r} (the soft contact's "
+                         f"restitution belongs to its damped oscillator), got {law!r}; use model='point'")
     if model == "soft":
         if cutoff is None:
             raise ValueError("cutoff must be a finite number > 0 when model='soft', got None")

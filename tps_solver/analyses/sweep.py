@@ -92,6 +92,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
+from tps_solver.model.restitution import RestitutionLaw
 from tps_solver.core.progress import Progress, progress_state
 
 __all__ = ["sweep", "param_range", "param_key", "load_store", "SweepInterrupted", "SweepResults", "FailedPoint"]
@@ -346,6 +347,8 @@ def _canonical(value, where):
         return {"l": [_canonical(v, where) for v in value]}
     if isinstance(value, dict):
         return {"d": [[str(k), _canonical(v, f"{where}[{k!r}]")] for k, v in sorted(value.items(), key=str)]}
+    if isinstance(value, RestitutionLaw) and value.parameters:
+        return {"law": [type(value).__name__, _canonical(value.parameters, where)]}
     raise ValueError(f"{where} has type {type(value).__name__}, which cannot be keyed in a store "
                      f"(use numbers, str, bool, None, numeric arrays, or lists/dicts of them)")
 

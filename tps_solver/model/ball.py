@@ -21,6 +21,7 @@ Mehta in the plate frame, :math:`\ddot\zeta = g(t) = \sin t - 1/\Gamma` (16) in 
 import math
 
 from tps_solver.model.flight import Flight, next_liftoff
+from tps_solver.model.restitution import RestitutionLaw
 
 __all__ = ["ClosedFormBall", "FREE", "STUCK", "CONTACT", "MODE_NAMES"]
 
@@ -37,8 +38,9 @@ class ClosedFormBall:
     ----------
     Gamma : float
         Plate acceleration, > 0.
-    e : float
-        Restitution in [0, 1] (> 0 for ``model="soft"``).
+    e : float or RestitutionLaw
+        Restitution in [0, 1] (> 0 for ``model="soft"``), or a speed-dependent law
+        (:mod:`tps_solver.model.restitution`, ``model="point"``).
     model : {"point", "soft"}
     cutoff : float or None
         Soft contact cut-off length :math:`\ell` (``model="soft"``).
@@ -67,6 +69,7 @@ class ClosedFormBall:
 
     def __init__(self, Gamma, e, model, cutoff, stick_velocity, max_events, soft_sticking=False):
         self.Gamma, self.e, self.model = Gamma, e, model
+        self._law = e if isinstance(e, RestitutionLaw) else None
         self.soft_sticking = soft_sticking
         self.inv_G = 1.0 / Gamma
         self.stick_velocity, self.max_events = stick_velocity, max_events
@@ -155,13 +158,15 @@ class ClosedFormBall:
                 w, z, mode = w_minus, 0.0, CONTACT
                 continue
             z = 0.0
-            if abs(w_minus) <= self.stick_velocity or self.e == 0.0:
+            if abs(w_minus) <= self.stick_velocity or (self._law is None and self.e == 0.0):
                 w = 0.0
                 if self._g(t) <= 0.0:
                     mode = STUCK
                     if events is not None:
                         events.append((t, "stick"))
                     continue
+            elif self._law is not None:
+                w = self._law.rebound(-w_minus)
             else:
                 w = -self.e * w_minus
             if events is not None:

@@ -39,8 +39,8 @@ from tps_solver.model.sticking import sticking_orbit, touch_orbits
 __all__ = ["FlatLayer"]
 
 _BRANCHES = ("stable", "unstable")
-_NO_LAW_CONTACT = ("sticking, chatter and touch-and-go orbits with a speed-dependent restitution law are "
-                   "not implemented (only the single bounce, pattern='bounce')")
+_NO_LAW_CONTACT = ("touch-and-go orbits need e = 0 exactly (a speed-dependent law rebounds from every landing "
+                   "with e(v) > 0)")
 _PATTERNS = ("auto", "bounce", "stick", "touch")
 
 
@@ -74,7 +74,7 @@ def _contact_orbit(Gamma, M, e, pattern, branch):
     """(ContactOrbit or None, reason) for pattern "stick" or "touch"."""
     if pattern == "stick":
         return sticking_orbit(Gamma, e, M)
-    if e != 0.0:
+    if isinstance(e, RestitutionLaw) or e != 0.0:
         return None, f"touch-and-go orbits need e = 0 (with e = {e} every landing rebounds)"
     orbits = touch_orbits(Gamma, M)
     if not orbits:
@@ -108,9 +108,11 @@ def _pattern_table(Gamma, M, e, exclude=None):
         if "bounce" != exclude:
             br = [b for b in _BRANCHES if _bounce_branch_exists(Gamma, M, e, b)]
             table["bounce"] = (bool(br), br if br else "no admissible single-bounce orbit with the law")
-        for pat in ("stick", "touch"):
-            if pat != exclude:
-                table[pat] = (False, _NO_LAW_CONTACT)
+        if "stick" != exclude:
+            orbit, why = _contact_orbit(Gamma, M, e, "stick", "stable")
+            table["stick"] = (True, ["stable"]) if orbit is not None else (False, why)
+        if "touch" != exclude:
+            table["touch"] = (False, _NO_LAW_CONTACT)
         return table
     for pat in ("bounce", "stick", "touch"):
         if pat == exclude:
@@ -253,12 +255,24 @@ class FlatLayer:
             e = e.e                       # a constant law is the float, bit for bit
         if isinstance(e, RestitutionLaw):
             self._inputs = {"Gamma": Gamma, "M": M, "e": e, "t0": t0, "branch": branch, "pattern": pattern}
-            if pattern in ("stick", "touch"):
-                raise ValueError(f"pattern={pattern!r} is not available with {e!r}: {_NO_LAW_CONTACT}")
+            if pattern == "touch":
+                raise ValueError(f"pattern='touch' is not available with {e!r}: {_NO_LAW_CONTACT}")
+            if pattern == "stick":
+                if t0 is not None:
+                    raise ValueError(f"t0 can only be given with pattern='bounce' or 'auto', got t0 = {t0!r}")
+                self._law = e
+                self._init_contact(Gamma, M, e, pattern, branch)
+                return
             try:
                 self._init_bounce_law(Gamma, M, e, t0, branch)
             except _NoBounceOrbit as exc:
-                raise ValueError(f"{exc} ({_NO_LAW_CONTACT})") from None
+                if pattern == "auto" and t0 is None and branch == "stable":
+                    orbit, _ = _contact_orbit(Gamma, M, e, "stick", "stable")
+                    if orbit is not None:
+                        self._law = e
+                        self._set_contact(Gamma, M, e, orbit)
+                        return
+                raise ValueError(f"{exc}; {_existing_patterns(Gamma, M, e)}") from None
             return
         if e is not None:
             e = check_restitution(e, "e")

@@ -50,6 +50,7 @@ import numbers
 
 import numpy as np
 
+from tps_solver.core import archive
 from tps_solver.core.checks import check_in_range, check_positive, check_real
 
 __all__ = ["RestitutionLaw", "ConstantRestitution", "ViscoelasticRestitution", "PowerLawRestitution",
@@ -110,6 +111,81 @@ class RestitutionLaw:
         """:math:`\\phi'(v) = e(v) + v\\,e'(v)`: the factor of the linearised impact map."""
         vv = v if np.isscalar(v) else np.asarray(v, dtype=float)
         return self(v) + vv * self.derivative(v)
+
+    def low_speed_asymptote(self):
+        r"""``(c, p)`` with :math:`1 - e(v) \sim c\,v^p` as :math:`v \to 0`, or None if :math:`e(0) < 1`.
+
+        What :meth:`chatter_tail` needs to sum a chatter sequence whose restitution tends to 1."""
+        e0 = self(0.0)
+        if e0 < 1.0:
+            return None
+        raise ValueError(f"{self!r} has e(0) = 1 but no low-speed asymptote; give one (CallableRestitution's "
+                         "low_speed=(c, p)) to sum chatter tails")
+
+    def chatter_tail(self, v, gamma, max_impacts=200000):
+        r"""Duration and impact count of a chatter sequence at constant gravity ``gamma``.
+
+        A bounce launched at speed :math:`u` under constant :math:`|g| = \gamma` lasts
+        :math:`2u/\gamma` and lands at speed :math:`u`, so the launch speeds follow
+        :math:`u_{j+1} = \phi(u_j)` and the sequence accumulates after
+        :math:`D = (2/\gamma)\sum_j u_j`.  A constant law (or one with :math:`e(0) < 1` and
+        ``e(v) <= e(0)``) is summed geometrically once the ratio is within 1e-3 of its limit;
+        a law with :math:`e \to 1` is iterated until :math:`u_j < 10^{-15}` (``ValueError`` if
+        that takes more than ``max_impacts``: laws with p near 1 chatter for a long time) and the rest is
+        the asymptotic sum :math:`\sum_{i \ge j} u_i \approx u_j^{1-p}/(c(1-p)) + u_j/2`
+        (from :math:`du/dj = -c\,u^{1+p}`, :meth:`low_speed_asymptote`; its relative error is
+        :math:`O(u_j^p)`, far below 1e-15 of :math:`D` here).
+
+        Parameters
+        ----------
+        v : float
+            Launch speed of the first bounce, >= 0.
+        gamma : float
+            :math:`|g| > 0` during the sequence.
+        max_impacts : int, optional
+
+        Returns
+        -------
+        duration : float
+        impacts : float
+            The impacts iterated, plus the asymptotic count of the rest (inf for a law
+            with e -> 1: the sequence has infinitely many impacts in a finite time).
+
+        Examples
+        --------
+        >>> d, n = ConstantRestitution(0.5).chatter_tail(1.0, 2.0)     # 2 v / (gamma (1 - e))
+        >>> round(d, 12), n
+        (2.0, inf)
+        >>> d, n = ViscoelasticRestitution(0.6).chatter_tail(1e-6, 1.0)
+        >>> c, p = ViscoelasticRestitution(0.6).low_speed_asymptote()
+        >>> bool(abs(d / (2 * (1e-6 ** (1 - p) / (c * (1 - p)))) - 1) < 0.05), n     # the asymptote
+        (True, inf)
+        """
+        v = float(v)
+        gamma = check_positive(gamma, "gamma")
+        if not (math.isfinite(v) and v >= 0.0):
+            raise ValueError(f"v must be a finite number >= 0, got {v!r}")
+        if v == 0.0:
+            return 0.0, 0.0
+        asym = self.low_speed_asymptote()
+        total, u = 0.0, v
+        for j in range(int(max_impacts)):
+            total += u
+            u_next = self.rebound(u)
+            if u_next <= 0.0:
+                return 2.0 * total / gamma, float(j + 1)
+            if asym is None:
+                ratio = u_next / u
+                e_lim = self(0.0)
+                if abs(ratio - e_lim) <= 1e-3 * max(e_lim, 1e-300) and ratio < 1.0:
+                    # the rest is geometric to within the ratio's drift (the law is flat near 0)
+                    return 2.0 * (total + u_next / (1.0 - ratio)) / gamma, math.inf
+            elif u_next < 1e-15:
+                c, p = asym
+                return 2.0 * (total + u_next ** (1.0 - p) / (c * (1.0 - p)) + 0.5 * u_next) / gamma, math.inf
+            u = u_next
+        raise ValueError(f"the chatter sequence of {self!r} from v = {v} has not accumulated after {max_impacts} "
+                         f"impacts (speed still {u:.3g})")
 
     def at(self, **parameters):
         """A copy with some parameters changed (names of :attr:`parameters`)."""
@@ -187,6 +263,10 @@ class PowerLawRestitution(RestitutionLaw):
         self.e0 = check_in_range(e0, "e0", 0.0, 1.0, low_closed=True, high_closed=False)
         self.v0 = check_positive(v0, "v0")
         self.parameters = {"e0": self.e0, "v0": self.v0}
+
+    def low_speed_asymptote(self):
+        """:math:`1 - e = (1 - e_0)(v/v_0)^{3/4}` below :math:`v_0`."""
+        return (1.0 - self.e0) / self.v0 ** 0.75, 0.75
 
     def _e(self, v):
         r = np.minimum(v / self.v0, 1.0)
@@ -323,6 +403,10 @@ class ViscoelasticRestitution(RestitutionLaw):
         kappa = brentq(lambda k: float(_kappa_e(k)) - e, 0.0, _KAPPA_TABLE, xtol=1e-15, rtol=1e-15)
         return cls(kappa / v ** 0.2)
 
+    def low_speed_asymptote(self):
+        """:math:`1 - e \\sim C_1 b\\,v^{1/5}` (:func:`viscoelastic_c1`)."""
+        return viscoelastic_c1() * self.b, 0.2
+
     def kappa(self, v):
         """:math:`\\kappa = b\\,v^{1/5}`."""
         return self.b * np.asarray(v, dtype=float) ** 0.2
@@ -365,7 +449,7 @@ def _kappa_de(k):
 
 
 class CallableRestitution(RestitutionLaw):
-    """A user's law: ``func(v) -> e`` and optionally ``derivative(v) -> de/dv``.
+    r"""A user's law: ``func(v) -> e`` and optionally ``derivative(v) -> de/dv``.
 
     Without ``derivative``, de/dv is a central difference with step ``1e-6 * max(v, 1)`` (error
     about 1e-10 relative for smooth laws): pass the derivative where multipliers matter.
@@ -377,6 +461,9 @@ class CallableRestitution(RestitutionLaw):
     derivative : callable or None, optional
     name : str, optional
         Shown in ``repr`` and messages.
+    low_speed : (float, float), optional
+        ``(c, p)`` with :math:`1 - e(v) \sim c\,v^p` at small speeds, for laws with
+        :math:`e(0) = 1` whose chatter tails are summed (:meth:`chatter_tail`).
 
     Examples
     --------
@@ -385,7 +472,13 @@ class CallableRestitution(RestitutionLaw):
     (0.45, -0.0225)
     """
 
-    def __init__(self, func, derivative=None, name=None):
+    def __init__(self, func, derivative=None, name=None, low_speed=None):
+        if low_speed is not None:
+            c, p = (float(x) for x in low_speed)
+            if not (c > 0.0 and 0.0 < p < 1.0):
+                raise ValueError(f"low_speed must be (c, p) with c > 0 and 0 < p < 1 (1 - e ~ c v^p), got {low_speed!r}")
+            low_speed = (c, p)
+        self.low_speed = low_speed
         if not callable(func):
             raise ValueError(f"func must be callable (v -> e), got {type(func).__name__}")
         if derivative is not None and not callable(derivative):
@@ -402,6 +495,11 @@ class CallableRestitution(RestitutionLaw):
         except (TypeError, ValueError):
             pass
         return np.array([float(f(float(x))) for x in v.ravel()]).reshape(v.shape)
+
+    def low_speed_asymptote(self):
+        if self.low_speed is not None:
+            return self.low_speed
+        return super().low_speed_asymptote()
 
     def _e(self, v):
         return self._apply(self.func, v)
@@ -450,3 +548,9 @@ def as_restitution(e, name="e"):
         check_real(e, name)
         return ConstantRestitution(check_in_range(e, name, 0.0, 1.0, low_closed=True, high_closed=False))
     raise ValueError(f"{name} must be a float in [0, 1) or a RestitutionLaw, got {e!r}")
+
+
+# ------------------------------------------------------------------ file codec (tps_solver.core.archive)
+for _cls in (ConstantRestitution, ViscoelasticRestitution, PowerLawRestitution):
+    archive.register(_cls.__name__, _cls, encode=lambda law: dict(law.parameters),
+                     decode=lambda d, cls=_cls: cls(**d))

@@ -63,6 +63,7 @@ from scipy.optimize import brentq
 
 from tps_solver.core import archive
 from tps_solver.model.flight import Flight, gravity, liftoff_index
+from tps_solver.model.restitution import RestitutionLaw
 
 __all__ = ["ContactOrbit", "sticking_orbit", "touch_orbits", "trace"]
 
@@ -90,6 +91,32 @@ def _tail(v, gam, e, tail_tol):
     if err > tail_tol:
         return None
     return D0, err
+
+
+def _law_tail(v, gam, law, tail_tol):
+    """A speed-dependent law's chatter tail at constant |g| = gam: (D, error estimate) or None if not short.
+
+    The tail is :meth:`RestitutionLaw.chatter_tail`; over its duration D the gravity changes by
+    at most D (|g'| <= 1), which changes each flight by a relative D/gam and each landing speed by
+    a relative (2/3) u/gam^2 (second order in the flight), so the accumulation time moves by
+    about 2 D^2/gam: an estimate to first order, not a bound.  A law with e -> 1 is summed only
+    once its asymptotic estimate of D is that short."""
+    asym = law.low_speed_asymptote()
+    if asym is not None:
+        c, p = asym
+        d_est = 2.0 * (v ** (1.0 - p) / (c * (1.0 - p)) + 0.5 * v) / gam
+        if 2.0 * d_est * d_est / gam > tail_tol or d_est > 0.25 * gam:
+            return None
+    elif law(v) >= 1.0:
+        return None
+    try:
+        D, _ = law.chatter_tail(v, gam)
+    except ValueError:
+        return None
+    err = 2.0 * D * D / gam
+    if err > tail_tol or D > 0.25 * gam:
+        return None
+    return D, err
 
 
 def trace(Gamma, e, t_start, v_start, t_end, tail_tol=1e-14, max_impacts=_MAX_IMPACTS):
@@ -130,6 +157,7 @@ def trace(Gamma, e, t_start, v_start, t_end, tail_tol=1e-14, max_impacts=_MAX_IM
     """
     segments, events = [], []
     t, v = t_start, v_start
+    law = e if isinstance(e, RestitutionLaw) else None
     for _ in range(max_impacts):
         fl = Flight(t, v, Gamma)
         tau = fl.first_landing(t_end - t)
@@ -141,7 +169,10 @@ def trace(Gamma, e, t_start, v_start, t_end, tail_tol=1e-14, max_impacts=_MAX_IM
         segments.append(("flight", t, t1, v))
         events.append((t1, "impact"))
         g1 = gravity(t1, Gamma)
-        v = -e * w_minus if w_minus < 0.0 else 0.0
+        if law is not None:
+            v = law.rebound(-w_minus) if w_minus < 0.0 else 0.0
+        else:
+            v = -e * w_minus if w_minus < 0.0 else 0.0
         if v <= 0.0:
             if g1 <= 0.0:
                 events.append((t1, "stick"))
@@ -149,7 +180,14 @@ def trace(Gamma, e, t_start, v_start, t_end, tail_tol=1e-14, max_impacts=_MAX_IM
             events.append((t1, "liftoff"))  # touch-and-go
             t, v = t1, 0.0
             continue
-        if g1 < 0.0:
+        if g1 < 0.0 and law is not None:
+            tail = _law_tail(v, -g1, law, tail_tol)
+            if tail is not None:
+                D, err = tail
+                segments.append(("tail", t1, t1 + D, (v, -g1, law, err)))
+                events.append((t1 + D, "stick"))
+                return segments, events, ("stick", t1 + D)
+        elif g1 < 0.0:
             tail = _tail(v, -g1, e, tail_tol)
             if tail is not None:
                 D0, err = tail
@@ -210,8 +248,9 @@ class ContactOrbit:
         self.multipliers = np.asarray(multipliers, dtype=complex)
         tails = [s for s in segments if s[0] == "tail"]
         self.tail_error = max([s[3][3] for s in tails], default=0.0)
-        self.harmonic_tail_bound = sum(2.0 * s[3][0] ** 2 / (s[3][1] * (1.0 - s[3][2] ** 2))
-                                       for s in tails) / self.period
+        self.harmonic_tail_bound = sum(
+            s[3][0] * (s[2] - s[1]) if isinstance(s[3][2], RestitutionLaw)        # |w| <= v over the tail
+            else 2.0 * s[3][0] ** 2 / (s[3][1] * (1.0 - s[3][2] ** 2)) for s in tails) / self.period
         self._starts = np.array([s[1] for s in segments])
 
     def _key(self):
@@ -303,6 +342,8 @@ class ContactOrbit:
                 fl = Flight(a, data, self.Gamma)
                 f = fl.w if which == "w" else fl.z
                 out[sel] = [f(x - a) for x in flat[sel]]
+            elif isinstance(data[2], RestitutionLaw):
+                continue      # a law's tail: |w| <= v, zeta <= v^2/(2 gam), both below 1e-9; evaluated as rest
             else:  # closed-form chatter tail at constant g
                 v, gam, e, _ = data
                 for i in sel:

@@ -42,7 +42,11 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
         Plate acceleration, > 0.
     e : float or RestitutionLaw
         Restitution in [0, 1), or a speed-dependent law (:mod:`tps_solver.model.restitution`),
-        evaluated at each landing's impact speed (impulsive methods only).
+        evaluated at each landing's impact speed (impulsive methods only).  An impact slower
+        than ``stick_velocity`` ends at rest; with a law whose e tends to 1 at low speed that
+        drops a chatter tail of duration ``law.chatter_tail(stick_velocity, |g|)[0]`` (about
+        8e-6 for the viscoelastic law with b = 5 at |g| = 1, 6e-5 with b = 0.6; of order 1 for
+        Bizon's power law, whose e tends to 1 like 1 - c v^(3/4); the lift-off is unaffected).
     w0, zeta0 : array_like of float, shape (n_nodes,)
         Initial velocity and height (``zeta0 >= 0`` for the impulsive methods; a soft
         contact may start compressed, ``zeta0 < 0``).

@@ -1,0 +1,187 @@
+"""The e = 0 kink continued in Gamma: width, leading multiplier and special points along the branch.
+
+:func:`gamma_branch` starts from the shooting kink (:func:`tps_solver.lattice_kink`) at
+Gamma = 4.1 on a planar Neumann lattice of length 40 and follows it in Gamma by
+pseudo-arclength continuation (:func:`tps_solver.continue_branch` on the shooting problem:
+the FDA period map with a dense Jacobian, whose eigenvalues are the multipliers) towards both
+ends of the range where the far field's sticking f/2 orbit exists (3.857 <= Gamma <= 6.362 at
+e = 0).  At every point the width (:func:`tps_solver.front_width`,
+``instant="lower_far_field_top"``) is measured on the orbit through the branch state.
+:func:`independent_points` re-solves three Gamma values from shooting's own default start and
+compares the leading multiplier and the state with the branch.
+
+``main`` writes ``validation/sections/kink_branch.md`` and the figure
+``validation/figures/kink_branch.png``.  Run ``python -m validation.kink_branch [--dx 2]``
+(about 15 minutes at dx = 2 on one core).
+"""
+import argparse
+import os
+import time
+
+import numpy as np
+
+import tps_solver as tps
+from validation.report import markdown_table, one_blas_thread, publish
+
+LENGTH = 40.0
+BOUNDS = (3.86, 6.36)
+FIGURES = os.path.join(os.path.dirname(__file__), "figures")
+
+
+def _lattice(dx, length=LENGTH):
+    return tps.Lattice.planar(n_nodes=int(round(length / dx)) + 1, length=length)
+
+
+def orbit_at(lat, Gamma, state, t_start):
+    """The periodic orbit through a branch state (one period of the FDA, no Newton step).
+
+    The shooting problem's period map reads the state with zeta clipped at 0 (a node at or
+    below the plate at the section is on the plate), so the orbit starts from that clipped state;
+    the clipping's size is returned in the row (``min_zeta0``)."""
+    n = lat.n_nodes
+    return tps.find_periodic_orbit(lat, Gamma=Gamma, M=2, e=0.0, guess=(state[:n], np.maximum(state[n:], 0.0)),
+                                   t_start=t_start, max_iter=0, multipliers=False)
+
+
+def _print_point(state):
+    print(f"  point {state.get('iteration', '?')}: {dict((k, v) for k, v in state.items() if k != 'stage')}", flush=True)
+
+
+def gamma_branch(dx=2.0, bounds=BOUNDS, Gamma0=4.1, verbose=False, **kw):
+    """The branch and per-point measurements (dict: ``branch``, ``rows``, ``start``, ``seconds``).
+
+    ``kw`` goes to :func:`tps_solver.continue_branch` (default ``bothsides=True``).
+    """
+    kw.setdefault("bothsides", True)
+    kw.setdefault("step", 0.05)
+    kw.setdefault("max_step", 0.5)
+    if verbose:
+        kw.setdefault("callback", _print_point)
+    lat = _lattice(dx)
+    with one_blas_thread():
+        start_time = time.perf_counter()
+        start = tps.lattice_kink(lat, Gamma=Gamma0, e=0.0)
+        if not start.converged:
+            raise RuntimeError(f"the start kink at Gamma = {Gamma0} did not converge: {start.message}")
+        br = tps.continue_branch(start, "Gamma", bounds, **kw)
+        seconds = time.perf_counter() - start_time
+        rows = []
+        for G, x, mu, st in zip(br.parameter_values, br.states, br.multipliers, br.stable):
+            orb = orbit_at(lat, float(G), x, start.t_start)
+            try:
+                w = float(tps.front_width(orb, instant="lower_far_field_top")[0])
+            except ValueError:
+                w = None
+            rows.append(dict(Gamma=float(G), mu1=float(np.nanmax(np.abs(mu))), stable=bool(st), width=w,
+                             period_defect=float(orb.residual), min_zeta0=float(np.min(x[lat.n_nodes:]))))
+    return dict(branch=br, rows=rows, start=start, seconds=seconds, lattice=lat)
+
+
+def _state_differences(lat, Gamma, a, b):
+    """max-norm distance of orbit ``a``'s section state from ``b``'s, and from ``b``'s mirror image.
+
+    The kink's symmetry on a symmetric Neumann lattice: the state at x, t equals the mirrored
+    state at L - x, t + T/2 (the two flat phases swap), so the mirror image of ``b`` is ``b``
+    advanced by half a period with the nodes reversed."""
+    direct = float(max(np.max(np.abs(a.w0 - b.w0)), np.max(np.abs(a.zeta0 - b.zeta0))))
+    half = b.period / 2.0
+    run = tps.simulate(lat, Gamma, 0.0, b.w0, b.zeta0, t_start=b.t_start, t_end=b.t_start + half,
+                       method=b.method, stuck0=b.get("stuck0"))
+    mirrored = float(max(np.max(np.abs(a.w0 - run.w[::-1])), np.max(np.abs(a.zeta0 - run.zeta[::-1]))))
+    return direct, mirrored
+
+
+def independent_points(result, gammas):
+    """Shooting from its default start at each Gamma of ``gammas`` against the branch (list of dict).
+
+    The branch state is interpolated linearly between its two neighbouring points in Gamma and
+    refined by shooting from there (``refined``); the independent solve's leading multiplier is
+    compared with the refined one's, and its state with the refined state (max norm).
+    """
+    lat, br = result["lattice"], result["branch"]
+    t0 = result["start"].t_start
+    p = br.parameter_values
+    out = []
+    with one_blas_thread():
+        for G in gammas:
+            ind = tps.lattice_kink(lat, Gamma=G, e=0.0, t_start=t0)
+            k = int(np.clip(np.searchsorted(p, G) if p[-1] > p[0] else np.searchsorted(-p, -G), 1, p.size - 1))
+            a, b = p[k - 1], p[k]
+            s = (G - a) / (b - a) if b != a else 0.0
+            guess = (1 - s) * br.states[k - 1] + s * br.states[k]
+            n = lat.n_nodes
+            ref = tps.find_periodic_orbit(lat, Gamma=G, M=2, e=0.0, guess=(guess[:n], guess[n:]), t_start=t0)
+            row = dict(Gamma=G, independent_converged=bool(ind.converged), branch_converged=bool(ref.converged))
+            if ind.converged and ref.converged:
+                direct, mirrored = _state_differences(lat, G, ind, ref)
+                row.update(mu1_independent=float(abs(ind.multipliers[0])), mu1_branch=float(abs(ref.multipliers[0])),
+                           mu1_difference=float(abs(abs(ind.multipliers[0]) - abs(ref.multipliers[0]))),
+                           state_difference=min(direct, mirrored),
+                           same_as=("the branch orbit" if direct <= mirrored else
+                                    "its mirror image (x -> L - x, half a period later)"))
+            out.append(row)
+    return out
+
+
+def plot(result, path):
+    import matplotlib
+    import matplotlib.pyplot as plt
+    rows = result["rows"]
+    G = np.array([r["Gamma"] for r in rows])
+    mu = np.array([r["mu1"] for r in rows])
+    w = np.array([np.nan if r["width"] is None else r["width"] for r in rows])
+    st = np.array([r["stable"] for r in rows])
+    with matplotlib.rc_context({"figure.figsize": (7.0, 5.0)}):
+        fig, (ax1, ax2) = plt.subplots(2, 1, sharex=True)
+        ax1.plot(G, w, "-", color="0.6", lw=0.8)
+        ax1.plot(G[st], w[st], "o", ms=3, label="stable")
+        ax1.plot(G[~st], w[~st], "x", ms=4, label="unstable")
+        ax1.set_ylabel("front width")
+        ax1.legend(fontsize=8)
+        ax2.plot(G, mu, "-", color="0.6", lw=0.8)
+        ax2.plot(G[st], mu[st], "o", ms=3)
+        ax2.plot(G[~st], mu[~st], "x", ms=4)
+        ax2.axhline(1.0, color="k", lw=0.5)
+        for kind, value in result["branch"].special_points:
+            for ax in (ax1, ax2):
+                ax.axvline(value, color="C3", lw=0.8, ls=":")
+        ax2.set_xlabel(r"$\Gamma$")
+        ax2.set_ylabel(r"largest $|\mu|$")
+        dx = result["lattice"].nodes[1] - result["lattice"].nodes[0]
+        ax1.set_title(f"e = 0 kink, dx = {dx:g}, L = {LENGTH:g}", fontsize=9)
+        fig.tight_layout()
+        fig.savefig(path, dpi=130)
+        plt.close(fig)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dx", type=float, default=2.0)
+    ap.add_argument("--check", type=float, nargs="+", default=[3.95, 4.6, 5.5])
+    args = ap.parse_args(argv)
+    res = gamma_branch(args.dx, verbose=True)
+    br = res["branch"]
+    checks = independent_points(res, args.check)
+    os.makedirs(FIGURES, exist_ok=True)
+    fig = os.path.join(FIGURES, "kink_branch.png")
+    plot(res, fig)
+    sp = ", ".join(f"{kind} at Gamma = {value:.6g}" for kind, value in br.special_points) or "none"
+    text = [
+        f"The e = 0 kink on a planar Neumann lattice (dx = {args.dx:g}, length {LENGTH:g}) continued in Gamma from "
+        f"4.1 (`tps.continue_branch` on the shooting problem; `python -m validation.kink_branch --dx {args.dx:g}`, "
+        f"{res['seconds']:.0f} s). Branch status {br.status}: {br.message}. {len(res['rows'])} points, Gamma "
+        f"from {min(br.parameter_values):.4g} to {max(br.parameter_values):.4g}; special points: {sp}. "
+        "Figure: `validation/figures/kink_branch.png`.", "",
+        markdown_table(res["rows"], [(k, k) for k in ("Gamma", "mu1", "stable", "width", "period_defect",
+                                                      "min_zeta0")]), "",
+        "Independent solves (shooting from its default start) against the branch (the branch state interpolated "
+        "in Gamma and refined by shooting):", "",
+        markdown_table(checks, [(k, k) for k in ("Gamma", "independent_converged", "branch_converged",
+                                                "mu1_independent", "mu1_branch", "mu1_difference",
+                                                "state_difference", "same_as")]),
+    ]
+    publish("kink_branch", "\n".join(text))
+
+
+if __name__ == "__main__":
+    main()
