@@ -361,3 +361,33 @@ def test_law_sticking_orbit_against_the_ball():
     assert abs(stick_orbit - stick_ball) < 1e-6        # the tail below 1e-9 lasts about 1e-7
     # after one period T = 4 pi from the lift-off the ball is at rest again (it lifts off at t0 + T)
     assert np.array_equal(x[-1], [0.0, 0.0]) and [k for _, k in ev].count("liftoff") == 1
+
+
+# ----------------------------------------------------------------------------- the TPS and continuation
+def test_solve_kink_with_law_is_the_constant_e_kink_and_stick_tps_refuses():
+    import tps_solver as tps
+    law = ViscoelasticRestitution(0.6)
+    fl = FlatLayer(2.4, 2, e=law)
+    a = tps.solve_kink(Gamma=2.4, e=law)
+    b = tps.solve_kink(Gamma=2.4, e=fl.e)
+    assert a.converged and b.converged and a.e == b.e == fl.e
+    assert np.max(np.abs(a.tc - b.tc)) < 1e-12
+    with pytest.raises(ValueError, match="constant restitution for the impact-and-stick TPS"):
+        tps.solve_stick_flat(4.6, e=law)
+
+
+def test_continuation_of_the_law_flat_layer():
+    # in Gamma: the period doubling where stability_window's modulus scan puts it (an independent
+    # test: det(I + J) along the branch); in the law's parameter b: the fold cos t0 = 1
+    import tps_solver as tps
+    law = ViscoelasticRestitution(0.6)
+    fl = FlatLayer(2.4, 2, e=law)
+    br = tps.continue_branch(fl, "Gamma", (2.2, 2.8), bothsides=True)
+    kinds = {sp[0]: sp[1] for sp in br.special_points}
+    lo, hi = FlatLayer.stability_window(law, 2)
+    assert kinds["period_doubling"] == pytest.approx(hi, abs=1e-8)
+    assert kinds["fold"] == pytest.approx(lo, abs=1e-8)
+    br = tps.continue_branch(fl, "b", (0.3, 1.0))
+    b_fold = [sp[1] for sp in br.special_points if sp[0] == "fold"][0]
+    at_fold = FlatLayer(2.4, 2, e=ViscoelasticRestitution(b_fold), pattern="bounce")
+    assert math.cos(at_fold.t0) == pytest.approx(1.0, abs=1e-7)

@@ -315,6 +315,56 @@ class _FlatProblem:
         return fl.impact_map_jacobian()
 
 
+class _LawFlatProblem:
+    """The single bounce with a speed-dependent law (v (1 + e(v)) = T/Gamma, v = T/2Gamma + cos t0)
+    in Gamma or one of the law's parameters."""
+
+    name = "flat"
+
+    def __init__(self, flat, parameter):
+        self.M, self.T = flat.M, flat.period
+        self.law = flat.restitution
+        self.parameters = ("Gamma",) + tuple(self.law.parameters)
+        self.fixed = {"Gamma": flat.Gamma, "M": flat.M, **self.law.parameters}
+        self.parameter = parameter
+        self.x0 = np.array([flat.t0])
+        self.p0 = self.fixed[parameter]
+        self.with_multipliers = True
+
+    def _G_law(self, p):
+        if self.parameter == "Gamma":
+            if not p > 0.0:
+                raise _Refused(f"parameter out of range: Gamma = {p:.6g}")
+            return p, self.law
+        try:
+            return self.fixed["Gamma"], self.law.at(**{self.parameter: p})
+        except ValueError as exc:
+            raise _Refused(str(exc)) from None
+
+    def residual(self, x, p):
+        G, law = self._G_law(p)
+        v = self.T / (2.0 * G) + math.cos(x[0])
+        if not v > 0.0:
+            raise _Refused(f"non-positive impact speed {v:.6g}")
+        return np.array([v * (1.0 + law(v)) - self.T / G])
+
+    def jacobian(self, x, p):
+        G, law = self._G_law(p)
+        v = self.T / (2.0 * G) + math.cos(x[0])
+        Jx = np.array([[-(1.0 + law.rebound_derivative(v)) * math.sin(x[0])]])
+        return Jx, _dF_dp(self, x, p)
+
+    def monodromy(self, x, p):
+        from tps_solver.model.flat import FlatLayer
+
+        G, law = self._G_law(p)
+        try:
+            fl = FlatLayer(G, self.M, e=law, t0=float(x[0]))
+        except ValueError as exc:
+            raise _Refused(str(exc)) from None
+        return fl.impact_map_jacobian()
+
+
 def _dF_dp(problem, x, p):
     """dF/dp by a central difference of relative step 1e-6."""
     hp = 1e-6 * max(1.0, abs(p))
@@ -532,6 +582,10 @@ def _make_problem(start, parameter, multipliers):
     else:
         raise ValueError(f"start must be a FlatLayer, a LatticeCycle, a ShootingOrbit, a StickSolution or "
                          f"a (problem, x0) pair, got {type(start).__name__}")
+    if problem is _FlatProblem and not start.restitution.constant:
+        law = start.restitution
+        parameter = check_choice(parameter, "parameter", ("Gamma",) + tuple(law.parameters))
+        return _LawFlatProblem(start, parameter)
     parameter = check_choice(parameter, "parameter", problem.parameters)
     if problem is _FlatProblem:
         return problem(start, parameter)
@@ -613,7 +667,9 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     start : FlatLayer, LatticeCycle, ShootingOrbit, StickSolution or (Problem, ndarray)
         A point on the branch (module docstring).
     parameter : str
-        ``"Gamma"`` or ``"e"`` (flat layer, impact-and-stick solution); ``"spacing"``,
+        ``"Gamma"`` or ``"e"`` (flat layer, impact-and-stick solution; a flat layer or shooting
+        orbit with a speed-dependent restitution law takes ``"Gamma"`` or one of the law's
+        parameters, e.g. ``"b"``); ``"spacing"``,
         ``"Gamma"`` or ``"e"`` (lattice cycle); ``"Gamma"``, ``"e"`` or ``"cutoff"`` (shooting
         orbit); a name of ``problem.parameters`` for a ``(problem, x0)`` pair.
     bounds : (float, float)

@@ -61,6 +61,7 @@ import time
 import numpy as np
 
 from tps_solver.core import defaults
+from tps_solver.model.restitution import RestitutionLaw, as_restitution
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.costs import check_cost, tps_cost
 from tps_solver.model.harmonics import centred, evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
@@ -82,7 +83,11 @@ def _common_args(Gamma, M, e, t0, n_harmonics, tol, max_iter, scheme, paper_sign
     Gamma = check_positive(Gamma, "Gamma")
     M = check_int(M, "M", minimum=1)
     if e is not None:
-        e = check_restitution(e, "e")
+        law = as_restitution(e)
+        # a speed-dependent law: every node of a single-contact orbit lands at the flat orbit's
+        # impact speed (the impulse per period is T/Gamma at every node), so the far field's
+        # level -cos t0 carries the law and the problem is that of e = e(v_flat)
+        e = check_restitution(law.e, "e") if law.constant else law
     flat = bouncing_far_field(Gamma, M, **defaults.model(e, t0))
     N = check_int(n_harmonics, "n_harmonics", minimum=1)
     tol = check_positive(tol, "tol")
@@ -478,7 +483,7 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
     >>> k.converged, k.checks.all_pass, k.spacing, k.formulation.split(" (")[0]
     (True, True, 8.0, 'impact-and-stick TPS')
     """
-    if e is not None and t0 is None and check_real(e, "e") == 0.0:
+    if e is not None and t0 is None and not isinstance(e, RestitutionLaw) and check_real(e, "e") == 0.0:
         kw = _inelastic_keywords("kink", "solve_stick_kink", max_iter, tol, (
             ("tc_initial", tc_initial, None), ("half_length", half_length, None), ("length", length, None),
             ("n_harmonics", n_harmonics, defaults.N_HARMONICS), ("n_nodes", n_nodes, defaults.N_NODES),
@@ -548,7 +553,7 @@ def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmon
     >>> sol.converged, sol.checks.all_pass, float(sol.nodes[0]), sol.w_hat.shape
     (True, True, 0.0, (61, 8))
     """
-    if e is not None and t0 is None and check_real(e, "e") == 0.0:
+    if e is not None and t0 is None and not isinstance(e, RestitutionLaw) and check_real(e, "e") == 0.0:
         kw = _inelastic_keywords("oscillon", "solve_stick_oscillon", max_iter, tol, (
             ("tc_initial", tc_initial, None), ("r_max", r_max, defaults.R_MAX),
             ("n_harmonics", n_harmonics, defaults.N_HARMONICS), ("n_nodes", n_nodes, defaults.N_NODES),

@@ -93,6 +93,7 @@ from tps_solver.core.bunch import Bunch
 from tps_solver.core.orbit import PeriodicOrbit
 from tps_solver.core.pattern import ContactPattern
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
+from tps_solver.model.restitution import RestitutionLaw
 from tps_solver.core.costs import check_cost
 from tps_solver.core.newton import newton
 from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_orbit
@@ -386,6 +387,12 @@ def _check_harmonics_cost(N, n):
 def _check_args(Gamma, M, e, n_basis, n_quad, tol, max_iter, n_harmonics):
     Gamma = check_positive(Gamma, "Gamma")
     M = check_int(M, "M", minimum=1)
+    if isinstance(e, RestitutionLaw):
+        if not e.constant:
+            raise ValueError(f"e must be a constant restitution for the impact-and-stick TPS, got {e!r}: its "
+                             "impulses -(1 + e) w- are linear in the unknowns only for a constant e; use "
+                             "tps.find_periodic_orbit (shooting) for a speed-dependent law")
+        e = e.e
     e = check_restitution(e, "e")
     n_basis = check_int(n_basis, "n_basis", minimum=1, maximum=12)
     n_quad = check_int(n_quad, "n_quad", minimum=2, maximum=128)
