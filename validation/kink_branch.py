@@ -26,6 +26,7 @@ from validation.report import markdown_table, one_blas_thread, publish
 LENGTH = 40.0
 BOUNDS = (3.86, 6.36)
 FIGURES = os.path.join(os.path.dirname(__file__), "figures")
+DATA = os.path.join(os.path.dirname(__file__), "data", "kink_branch")
 
 
 def _lattice(dx, length=LENGTH):
@@ -110,7 +111,8 @@ def independent_points(result, gammas):
             s = (G - a) / (b - a) if b != a else 0.0
             guess = (1 - s) * br.states[k - 1] + s * br.states[k]
             n = lat.n_nodes
-            ref = tps.find_periodic_orbit(lat, Gamma=G, M=2, e=0.0, guess=(guess[:n], guess[n:]), t_start=t0)
+            ref = tps.find_periodic_orbit(lat, Gamma=G, M=2, e=0.0, guess=(guess[:n], np.maximum(guess[n:], 0.0)),
+                                          t_start=t0)
             row = dict(Gamma=G, independent_converged=bool(ind.converged), branch_converged=bool(ref.converged))
             if ind.converged and ref.converged:
                 direct, mirrored = _state_differences(lat, G, ind, ref)
@@ -161,6 +163,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     res = gamma_branch(args.dx, verbose=True)
     br = res["branch"]
+    os.makedirs(DATA, exist_ok=True)
+    br.save(os.path.join(DATA, f"branch_dx{args.dx:g}.npz"))      # the branch, kept before the checks
     checks = independent_points(res, args.check)
     os.makedirs(FIGURES, exist_ok=True)
     fig = os.path.join(FIGURES, "kink_branch.png")
