@@ -101,3 +101,13 @@ def test_bad_input():
         simulate_thickness(lat, 2.5, 0.45, np.zeros(5), np.ones(5), np.zeros(5), t_end=1.0)
     with pytest.raises(ValueError, match="chi must be"):
         simulate_thickness(lat, 2.5, 0.45, np.zeros(5), np.ones(5), np.ones(5), chi=-1.0, t_end=1.0)
+
+
+@pytest.mark.slow
+def test_e0_core_collapses_with_and_without_the_push():
+    # validation/thickness_oscillons.py: the e = 0, Gamma = 4.1 core of radius 10 collapses within
+    # 12 periods with the push off (the antiplane model) and on (chi = 1); mass kept to rounding
+    from validation.thickness_oscillons import core_run
+    for chi in (0.0, 1.0):
+        r = core_run(4.1, 0.0, chi, periods=12)
+        assert r["fate"] == "collapses" and r["R_dR"] < 0 and r["mass_drift"] < 1e-13

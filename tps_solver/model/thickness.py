@@ -5,14 +5,14 @@ reduced model with a thickness field :math:`h(t, x)` and a lateral velocity :mat
 
 .. math::
     \partial_t h + \partial_x(hu) = 0, \qquad
-    h(\partial_t u + u\partial_x u) = \partial_x(4\nu h\,\partial_x u), \\
-    h(\partial_t w + u\partial_x w) = \partial_x(\nu h\,\partial_x w) + h\,g(t), \qquad
-    \partial_t\zeta + u\,\partial_x\zeta = w,
+    h\,\partial_t u = \partial_x(4\nu h\,\partial_x u), \\
+    h\,\partial_t w = \partial_x(\nu h\,\partial_x w) + h\,g(t), \qquad
+    \partial_t\zeta = w,
 
 with the impact's lateral push :math:`\Delta u = -\chi h^{-1}\partial_x(\Delta w\,h^2/2)`.  About
 the flat layer its perturbations decay at the two rates of :func:`long_wave_rates`; the varicose
-roots of (35) tend to them as :math:`kh \to 0` (``tests/test_thickness.py``).  No integrator of
-the model exists yet (``docs/thickness.md``, last section).
+roots of (35) tend to them as :math:`kh \to 0` (``tests/test_thickness.py``).  The model is
+integrated by :func:`tps_solver.solvers.thickness.simulate_thickness`.
 """
 import numpy as np
 
