@@ -111,3 +111,23 @@ def test_e0_core_collapses_with_and_without_the_push():
     for chi in (0.0, 1.0):
         r = core_run(4.1, 0.0, chi, periods=12)
         assert r["fate"] == "collapses" and r["R_dR"] < 0 and r["mass_drift"] < 1e-13
+
+
+def test_thickness_restitution():
+    # e(v, h) = e_v(v) min(1, 2 / (1 + (h/h_e)^2)): at h <= h_e the speed law itself (the same run
+    # event for event), and a deep node rebounds less
+    from tps_solver.model.restitution import ThicknessRestitution
+    law = ThicknessRestitution(0.45, h_e=1.0)
+    assert law(2.0, 3.0) == pytest.approx(0.45 * 2.0 / 10.0, rel=1e-15) and law(2.0, 0.5) == 0.45
+    lat = tps.Lattice.planar(n_nodes=7, length=6.0)
+    fl, t0, w0, z0 = _start(2.5, 0.45, lat)
+    a = simulate_thickness(lat, 2.5, 0.45, w0, z0, np.ones(7), chi=0.0, t_start=t0, t_end=t0 + fl.period)
+    b = simulate_thickness(lat, 2.5, law, w0, z0, np.ones(7), chi=0.0, t_start=t0, t_end=t0 + fl.period)
+    assert a.events == b.events and np.array_equal(a.w, b.w)
+    deep = simulate_thickness(lat, 2.5, law, w0, z0, np.full(7, 3.0), chi=0.0, t_start=t0, t_end=t0 + fl.period)
+    t_imp, j, _ = next(ev for ev in a.events if ev[2] == "impact")
+    # right after the first impact the deep node rises at e(v, 3) = 0.09 of its landing speed
+    rd = simulate_thickness(lat, 2.5, law, w0, z0, np.full(7, 3.0), chi=0.0, t_start=t0, t_end=t_imp + 1e-9)
+    ra = simulate_thickness(lat, 2.5, 0.45, w0, z0, np.full(7, 3.0), chi=0.0, t_start=t0, t_end=t_imp + 1e-9)
+    assert rd.w[j] == pytest.approx(ra.w[j] * 0.09 / 0.45, rel=1e-6)
+    assert deep.success

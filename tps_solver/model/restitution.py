@@ -54,7 +54,7 @@ from tps_solver.core import archive
 from tps_solver.core.checks import check_in_range, check_positive, check_real
 
 __all__ = ["RestitutionLaw", "ConstantRestitution", "ViscoelasticRestitution", "PowerLawRestitution",
-           "CallableRestitution", "as_restitution", "viscoelastic_restitution", "viscoelastic_c1"]
+           "CallableRestitution", "ThicknessRestitution", "as_restitution", "viscoelastic_restitution", "viscoelastic_c1"]
 
 
 class RestitutionLaw:
@@ -522,6 +522,49 @@ class CallableRestitution(RestitutionLaw):
 
     def __hash__(self):
         return id(self)
+
+
+class ThicknessRestitution:
+    r"""A restitution that also depends on the layer thickness: :math:`e(v, h) = e_v(v)\,
+    \min(1, 2/(1 + (h/h_e)^q))`.
+
+    It equals the speed law :math:`e_v` at the reference thickness :math:`h_e` and tends to 0
+    for deep layers, as the paper proposes after (11) (e -> 0 for h/d -> infinity: deep layers
+    adhere to the plate).  Used by the thickness model
+    (:func:`tps_solver.solvers.thickness.simulate_thickness`); elsewhere the thickness is
+    uniform and a speed law is what is needed.
+
+    Parameters
+    ----------
+    law : float or RestitutionLaw
+        The speed law :math:`e_v`.
+    h_e : float
+        The reference thickness (plate amplitudes), > 0.
+    q : float, optional
+        The decay exponent, > 0 (default 2).
+
+    Examples
+    --------
+    >>> law = ThicknessRestitution(0.45, h_e=2.0)
+    >>> law(3.0, 2.0), round(law(3.0, 6.0), 6), law(3.0, 0.5)
+    (0.45, 0.09, 0.45)
+    """
+
+    def __init__(self, law, h_e, q=2.0):
+        self.law = as_restitution(law, "law")
+        self.h_e = check_positive(h_e, "h_e")
+        self.q = check_positive(q, "q")
+
+    def __call__(self, v, h):
+        """e at impact speeds ``v`` and thicknesses ``h`` (broadcast; float for scalars)."""
+        factor = np.minimum(1.0, 2.0 / (1.0 + (np.asarray(h, dtype=float) / self.h_e) ** self.q))
+        if not np.all(np.isfinite(factor)) or np.any(np.asarray(h) <= 0):
+            raise ValueError(f"h must be finite and > 0 for {self!r}, got {h!r}")
+        out = self.law(v) * factor
+        return float(out) if np.ndim(out) == 0 else out
+
+    def __repr__(self):
+        return f"ThicknessRestitution({self.law!r}, h_e={self.h_e!r}, q={self.q!r})"
 
 
 def as_restitution(e, name="e"):

@@ -49,7 +49,7 @@ from scipy.integrate import solve_ivp
 
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_array, check_int, check_nonnegative, check_positive, check_real
-from tps_solver.model.restitution import as_restitution
+from tps_solver.model.restitution import ThicknessRestitution, as_restitution
 from tps_solver.operators.lattice import Lattice
 
 __all__ = ["ThicknessLattice", "simulate_thickness", "ThicknessResult"]
@@ -183,7 +183,9 @@ def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_
         Planar or axisymmetric, Neumann ends.
     Gamma : float
         > 0.
-    e : float or RestitutionLaw
+    e : float, RestitutionLaw or ThicknessRestitution
+        A :class:`~tps_solver.model.restitution.ThicknessRestitution` is evaluated at each
+        landing node's impact speed and thickness.
     w0, zeta0, h0 : array_like of float, shape (n_nodes,)
         Initial velocity, height (>= 0) and thickness (> 0, in plate amplitudes).
     u0 : array_like of float, shape (n_nodes - 1,), optional
@@ -222,7 +224,8 @@ def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_
     op = ThicknessLattice(lattice)
     n = op.n
     Gamma = check_positive(Gamma, "Gamma")
-    law = as_restitution(e)
+    thick = isinstance(e, ThicknessRestitution)
+    law = None if thick else as_restitution(e)
     w = check_array(w0, "w0", shape=(n,)).astype(float).copy()
     z = check_array(zeta0, "zeta0", shape=(n,)).astype(float).copy()
     h = check_array(h0, "h0", shape=(n,)).astype(float).copy()
@@ -319,7 +322,10 @@ def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_
         lifting = np.flatnonzero(stuck & (a_now >= -1e-10))
         if landing.size:
             w_minus = w[landing].copy()
-            e_here = law(-w_minus) if not law.constant else law.e
+            if thick:
+                e_here = e(-w_minus, h[landing])
+            else:
+                e_here = law(-w_minus) if not law.constant else law.e
             w_plus = -e_here * w_minus
             dw = np.zeros(n)
             dw[landing] = w_plus - w_minus
