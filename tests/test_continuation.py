@@ -243,3 +243,35 @@ def test_a_user_problem_continues_through_its_fold():
     assert br.status == 0 and br.states[-1][0] < 0.0        # came back on the other side
     with pytest.raises(ValueError, match="parameter"):
         tps.continue_branch((_Circle(), np.array([1.0])), "q", (-0.5, 2.0))
+
+
+def test_branch_point_is_typed_where_a_multiplier_passes_plus_one():
+    # the map x -> x + F(x; p), F = p x - x^3, on its trivial branch x = 0: the multiplier 1 + p
+    # passes +1 at p = 0 while p keeps increasing (a pitchfork); and the fold test stays silent
+    from tps_solver.core.problem import Problem
+
+    class Pitchfork(Problem):
+        def __init__(self, p):
+            self.p = p
+
+        @property
+        def parameters(self):
+            return {"p": self.p}
+
+        def at(self, **values):
+            return Pitchfork(values.get("p", self.p))
+
+        def residual(self, x):
+            return np.array([self.p * x[0] - x[0] ** 3]), None
+
+        def jacobian(self, x, F, data):
+            return np.array([[self.p - 3.0 * x[0] ** 2]])
+
+        def monodromy(self, x, data):
+            return np.array([[1.0 + self.p - 3.0 * x[0] ** 2]])
+
+    br = tps.continue_branch((Pitchfork(-0.5), np.array([0.0])), "p", (-0.5, 0.5), step=0.05, max_step=0.1)
+    kinds = [(k, v) for k, v in br.special_points]
+    assert [k for k, _ in kinds] == ["branch_point"]
+    assert abs(kinds[0][1]) < 1e-9
+    assert br.stable[0] and not br.stable[-1]

@@ -29,6 +29,10 @@ Between consecutive points the test functions are watched for a sign change:
   (the parameter turns back: a saddle-node, a Floquet multiplier through +1);
 * ``"period_doubling"`` -- :math:`\det(I + \mathcal M)` of the monodromy
   :math:`\mathcal M` (a real multiplier through -1);
+* ``"branch_point"`` -- :math:`\prod(1 - \mu)` over the multipliers (a real multiplier through
+  +1) changes sign while :math:`\tau_p` does not: the parameter goes on, and another family of
+  orbits meets the branch (a pitchfork or transcritical point, e.g. where a pinned front
+  changes stability);
 
 and each one found is located by bisection in arclength to ``tol_special``
 (relative) before the branch goes on.  Every point carries its Floquet
@@ -94,7 +98,7 @@ class SpecialPoint(tuple):
     Attributes
     ----------
     kind : str
-        ``"fold"`` or ``"period_doubling"``.
+        ``"fold"``, ``"period_doubling"`` or ``"branch_point"``.
     value : float
         The parameter value there.
     parameter : str
@@ -156,7 +160,7 @@ class Branch(Bunch):
         Multipliers per point, by decreasing modulus (NaN where not computed).
     special_points : list of SpecialPoint
         Typed records (kind, value, parameter, index, state, multipliers) that read as the pair
-        ``(kind, parameter value)``, kind ``"fold"`` or ``"period_doubling"``.
+        ``(kind, parameter value)``, kind ``"fold"``, ``"period_doubling"`` or ``"branch_point"``.
     special_details : list of dict
         Per special point: ``kind``, ``value``, ``index`` (the point after it),
         ``state``, ``multipliers``.
@@ -640,6 +644,14 @@ def _correct(problem, y_pred, tangent, tol, max_iter):
     return out.x, out.converged, out.nit, None if out.converged else bordered.refused
 
 
+def _branch_test(mu):
+    """prod(1 - mu) (real for a real map; nan without multipliers): its sign flips where a real
+    multiplier passes +1."""
+    if mu.size == 0:
+        return np.nan
+    return float(np.real(np.prod(1.0 - mu)))
+
+
 def _multipliers(problem, y):
     n = y.size - 1
     J = problem.monodromy(y[:n], y[n])
@@ -767,6 +779,7 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
         raise ValueError(f"start: {exc}") from None
     mus.append(mu)
     pds.append(pd)
+    bps = [_branch_test(mu)]
     specials, details = [], []
     status, message = 1, f"point limit ({max_points}) reached"
     h = step
@@ -794,8 +807,11 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
                     break
                 continue
             # special points between y_prev and y_new
+            bp = _branch_test(mu)
+            folded = tau_prev[-1] * tau_new[-1] < 0.0
             for kind, f_prev, f_new in (("fold", tau_prev[-1], tau_new[-1]),
-                                        ("period_doubling", pds[-1], pd)):
+                                        ("period_doubling", pds[-1], pd),
+                                        ("branch_point", bps[-1] if not folded else np.nan, bp)):
                 if np.isfinite(f_prev) and np.isfinite(f_new) and f_prev * f_new < 0.0:
                     sp = _locate(problem, kind, y_prev, tau_prev, h, f_prev, tol, tol_special, max_corrector)
                     if sp is not None:
@@ -806,6 +822,7 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
             tangents.append(tau_new)
             mus.append(mu)
             pds.append(pd)
+            bps.append(bp)
             if callback is not None:
                 callback(progress_state("continuation", len(points) - 1, parameter=parameter,
                                         parameter_value=float(y_new[-1]),
@@ -875,6 +892,9 @@ def _locate(problem, kind, y0, tau0, h, f0, tol, tol_special, max_corrector):
                 Jx, Jp = problem.jacobian(y[:-1], y[-1])
                 f = _tangent(Jx, Jp, tau0)[-1]
                 mu = None
+            elif kind == "branch_point":
+                mu, _ = _multipliers(problem, y)
+                f = _branch_test(mu)
             else:
                 mu, f = _multipliers(problem, y)
         except _Refused:
