@@ -176,13 +176,16 @@ def main(argv=None):
     cost = (f"the stored branch of an earlier run, measured here in {res['seconds']:.0f} s" if args.reuse
             and os.path.exists(stored) else f"{res['seconds']:.0f} s")
     changes = [(a, b) for a, b in zip(res["rows"][:-1], res["rows"][1:]) if a["stable"] != b["stable"]]
+    typed = [sp for sp in br.special_points if sp[0] == "branch_point"]
     change_text = " ".join(
         f"The kink loses or gains stability between Gamma = {a['Gamma']:.4g} (|mu1| = {a['mu1']:.4g}) and "
         f"{b['Gamma']:.4g} (|mu1| = {b['mu1']:.4g}), with the leading multiplier "
-        f"{'real' if max(a['mu1_imag'], b['mu1_imag']) < 1e-8 else 'complex'} and Gamma monotone there: not a "
-        "fold or a period doubling (which continue_branch types) but a multiplier through +1 on a branch "
-        "that goes on: a branch point, where another family of orbits meets this one (not computed "
-        "here)." for a, b in changes) or "The stability does not change along the branch."
+        f"{'real' if max(a['mu1_imag'], b['mu1_imag']) < 1e-8 else 'complex'} and Gamma monotone there"
+        + (f": continue_branch types it as a branch point (a multiplier through +1 while Gamma goes on) at "
+           f"Gamma = {typed[0][1]:.6g}, where another family of orbits meets this one (not computed here)."
+           if typed else ": a multiplier through +1 on a branch that goes on (a branch point; this stored "
+           "branch predates the typing).")
+        for a, b in changes) or "The stability does not change along the branch."
     if changes:
         change_text += (" Where shooting from its own default start finds a different orbit than the branch "
                         "(table below), it is another kink of the same lattice and Gamma.")

@@ -332,6 +332,10 @@ def build_report(path=REPORT_PATH, sections_dir=None, date=None, notes=None):
         "## Contents",
         "",
     ]
+    known = dict(SECTION_ORDER)
+    # a section without a heading of its own gets its registered title as one
+    bodies = [(stem, text if _title(text, None) else f"## {known.get(stem, stem)}\n\n{text}")
+              for stem, text in bodies]
     for stem, text in bodies:
         title = _title(text, stem)
         out.append(f"- [{title}](#{_anchor(title)}) (`sections/{stem}.md`)")
