@@ -428,8 +428,7 @@ class FlatLayer:
                 continue
             for sign in (1.0, -1.0):
                 try:
-                    out.append(FlatLayer(Gamma, M, e=law if not law.constant else law.e, t0=sign * math.acos(c),
-                                         pattern="bounce"))
+                    out.append(FlatLayer(Gamma, M, e=law, t0=sign * math.acos(c), pattern="bounce"))
                 except ValueError:
                     pass
                 if c == 1.0:
@@ -889,29 +888,11 @@ def _law_stability_window(law, M):
 
 # ------------------------------------------------------------------ file codec (tps_solver.core.archive)
 def _encode_flat(layer):
-    inputs = dict(layer._inputs)
-    law = inputs["e"]
-    if isinstance(law, RestitutionLaw):
-        if not law.parameters:
-            raise ValueError(f"a FlatLayer with {law!r} cannot be saved (a callable law has no parameters "
-                             "to store)")
-        inputs["e"] = {"law": type(law).__name__, "parameters": dict(law.parameters)}
-    return {"inputs": inputs, "e": layer.e, "t0": layer.t0}
-
-
-def _decode_law(spec):
-    from tps_solver.model import restitution
-    cls = getattr(restitution, spec["law"], None)
-    if not (isinstance(cls, type) and issubclass(cls, RestitutionLaw)) or spec["law"] == "CallableRestitution":
-        raise ValueError(f"unknown restitution law {spec['law']!r} in the stored layer")
-    return cls(**spec["parameters"])
+    return {"inputs": dict(layer._inputs), "e": layer.e, "t0": layer.t0}
 
 
 def _decode_flat(data):
-    inputs = dict(data["inputs"])
-    if isinstance(inputs.get("e"), dict):
-        inputs["e"] = _decode_law(inputs["e"])
-    layer = FlatLayer(**inputs)
+    layer = FlatLayer(**data["inputs"])
     if layer.e != data["e"] or layer.t0 != data["t0"]:
         raise ValueError(f"inconsistent: the stored layer has e = {data['e']!r}, t0 = {data['t0']!r}, its "
                          f"inputs give e = {layer.e!r}, t0 = {layer.t0!r}")

@@ -116,8 +116,7 @@ class ThicknessLattice:
         self.n = x.size
         self.V = np.asarray(lattice.volumes, dtype=float)
         self.dx = np.diff(x)                                   # node to node, per interior face
-        S = lattice.flux
-        self.C = np.array([S[i, i + 1] for i in range(self.n - 1)])     # conductances A_k / dx_k
+        self.C = np.diag(lattice.flux, 1).copy()                       # conductances A_k / dx_k
         self.A = self.C * self.dx                              # face areas (planar 1, axisym r_face)
         self.axisymmetric = lattice.geometry == "axisymmetric"
         if self.axisymmetric:
