@@ -56,6 +56,7 @@ SECTION_ORDER = (
     ("kink_branch", "The e = 0 kink continued in Gamma"),
     ("basins", "Basins of the bouncing ball"),
     ("integrators", "Fast integrators: point impacts and the soft contact"),
+    ("compiled", "Compiled kernels (the fast extra)"),
     ("shooting", "Periodic orbits of any contact pattern by shooting"),
     ("soft_kinks", "Soft-contact kinks over lattice spacings"),
     ("continuation", "Continuation: folds and period doublings"),

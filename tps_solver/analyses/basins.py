@@ -69,7 +69,10 @@ and the multipliers are an average of two one-sided derivatives.  Fractions
 carry the binomial standard error :math:`\sqrt{f(1-f)/n}` and a 95% Wilson
 interval (meaningful also at :math:`f = 0` or 1).
 """
+import contextlib
 import math
+import signal
+import threading
 
 import numpy as np
 
@@ -87,6 +90,8 @@ __all__ = ["flat_basins", "BasinResult", "ball_cycle"]
 
 MODELS = ("point", "soft")
 INTEGRATORS = ("closed_form", "simulate")
+ENGINES = ("auto", "compiled", "reference")
+_CHUNK = 64                  # samples per call of the compiled ensemble (progress and Ctrl-C between calls)
 _TWO_PI = 2.0 * math.pi
 _MATCH_TOL = 1e-5
 _FD_STEP = 1e-6
@@ -322,6 +327,68 @@ def _basin_sample(Gamma, e, model, cutoff, w0, zeta0, t_section, p_max, max_cycl
                 message="", near_period=near, near_distance=dist)
 
 
+def _compiled_samples(Gamma, e, w0, zeta0, t_section, p_max, max_cycles, tol, stick_velocity, max_events,
+                      progress):
+    """The samples of :func:`_basin_sample`, as one compiled ensemble (:mod:`tps_solver.model.ball_kernel`).
+
+    Returns the list of sample dicts, ``None`` where Ctrl-C stopped the run first."""
+    from tps_solver.core.progress import Progress
+    from tps_solver.model.ball_kernel import basin_ensemble
+
+    n = w0.size
+    out = [None] * n
+    with Progress("flat_basins", total=n, enabled=progress is not False, unit="sample") as bar, \
+            _deferred_sigint() as interrupted:
+        for start in range(0, n, _CHUNK):
+            if interrupted():
+                break
+            sl = slice(start, min(n, start + _CHUNK))
+            states, status, info, t_fail = basin_ensemble(Gamma, e, stick_velocity, t_section, w0[sl], zeta0[sl],
+                                                          max_cycles, p_max, tol, _CONVERGING, max_events)
+            for i in range(states.shape[0]):
+                out[start + i] = _sample_dict(states[i], status[i], info[i], t_fail[i], max_cycles, p_max,
+                                              max_events)
+            bar.update(states.shape[0])
+    return out
+
+
+def _sample_dict(states, status, info, t_fail, max_cycles, p_max, max_events):
+    """One compiled sample as the dict of :func:`_basin_sample`."""
+    period, k, first, imp, stk = (int(v) for v in info)
+    if status == 0:
+        pts = states[k - period + 1:k + 1]
+        return dict(status="periodic", period=period, n_cycles=k, first_index=first,
+                    points=[(float(q[0]), float(q[1]), int(q[2])) for q in pts], impacts=imp, sticks=stk,
+                    message="")
+    if status == 2:
+        return dict(status="failed", period=0, n_cycles=k, first_index=0, points=[], impacts=0, sticks=0,
+                    message=f"more than {max_events} events in one forcing cycle near t = {float(t_fail):.12g}")
+    near, dist = _near_period(states, p_max)
+    q = states[-1]
+    return dict(status="irregular", period=0, n_cycles=max_cycles, first_index=0,
+                points=[(float(q[0]), float(q[1]), int(q[2]))], impacts=0, sticks=0, message="",
+                near_period=near, near_distance=dist)
+
+
+@contextlib.contextmanager
+def _deferred_sigint():
+    """Ctrl-C during compiled calls: noted and acted on between calls (yields ``interrupted()``).
+
+    A KeyboardInterrupt raised while a compiled kernel runs surfaces as a ``SystemError`` from the
+    dispatcher, so in the main thread SIGINT only sets a flag here (the previous handler is
+    restored on exit); elsewhere signals cannot be caught and nothing changes."""
+    flag = []
+    if threading.current_thread() is not threading.main_thread():
+        yield lambda: False
+        return
+    previous = signal.getsignal(signal.SIGINT)
+    signal.signal(signal.SIGINT, lambda signum, frame: flag.append(signum))
+    try:
+        yield lambda: bool(flag)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _period_map(ball, t_section, x, p):
     s = x
     for _ in range(p):
@@ -458,6 +525,24 @@ def _check_model(Gamma, e, model, cutoff):
     return Gamma, e, model, cutoff
 
 
+def _compiled_inapplicable(model, e, integrator, executor, store):
+    """Why the compiled ensemble does not apply ('' if it does)."""
+    from tps_solver.core import jit
+
+    if model != "point":
+        return f"model={model!r} (the compiled ball has point impacts)"
+    if isinstance(e, RestitutionLaw):
+        return "a speed-dependent restitution law (the compiled ball has a constant e)"
+    if integrator != "closed_form":
+        return f"integrator={integrator!r}"
+    if not (isinstance(executor, str) and executor == "serial") or store is not None:
+        return "an executor or a store (the compiled ensemble runs in this process)"
+    if not jit.enabled():
+        return ("numba is not installed (pip install tps-solver[fast])" if not jit.available()
+                else "TPS_SOLVER_NUMBA=0 disables the compiled kernels")
+    return ""
+
+
 def _check_range(value, name, low_bound=None):
     arr = check_array(value, name, shape=(2,))
     if not arr[0] < arr[1]:
@@ -470,7 +555,7 @@ def _check_range(value, name, low_bound=None):
 def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None, periods=200, *,
                 p_max=None, tol=1e-8, t_section=0.0, w_range=None, zeta_range=None, stick_velocity=1e-6,
                 integrator="closed_form", soft_sticking=False, max_events_per_cycle=10000, executor="serial",
-                store=None, progress=False):
+                store=None, progress=False, engine="auto"):
     r"""Fractions of random initial states of one node that reach each attractor.
 
     See the module docstring for the models and how attractors are classified.
@@ -520,7 +605,16 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
         A sample with more events in a forcing cycle fails (``labels == -2``).
     executor, store, progress
         Passed to :func:`~tps_solver.analyses.sweep.sweep` (one point per sample);
-        default in this process.
+        default in this process.  ``progress`` also counts the samples of the compiled engine.
+    engine : {"auto", "compiled", "reference"}
+        ``"compiled"`` runs all samples as one ensemble of compiled kernels
+        (:mod:`tps_solver.model.ball_kernel`; needs the ``fast`` extra, numba, and applies to
+        ``model="point"`` with a constant ``e``, ``integrator="closed_form"``, in this process:
+        ``executor="serial"``, no ``store``); ``"reference"`` follows each sample with
+        :class:`~tps_solver.model.ball.ClosedFormBall` through
+        :func:`~tps_solver.analyses.sweep.sweep`; ``"auto"`` (default) is ``"compiled"`` where it
+        applies and numba is there, else ``"reference"``.  The two give the same classifications
+        (the states agree to the last bits; a chaotic sample can part from them over many cycles).
 
     Returns
     -------
@@ -556,6 +650,11 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     if soft_sticking and (model != "soft" or integrator != "closed_form"):
         raise ValueError("soft_sticking=True needs model='soft' and integrator='closed_form'")
     max_events = check_int(max_events_per_cycle, "max_events_per_cycle", minimum=1)
+    engine = check_choice(engine, "engine", ENGINES)
+    why_not = _compiled_inapplicable(model, e, integrator, executor, store)
+    if engine == "compiled" and why_not:
+        raise ValueError(f"engine='compiled' does not apply: {why_not}; use engine='reference'")
+    compiled = engine == "compiled" or (engine == "auto" and not why_not)
     max_cycles = periods * M
     if 2 * p_max > max_cycles:
         raise ValueError(f"periods must give at least 2 * p_max = {2 * p_max} forcing cycles, "
@@ -571,20 +670,24 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
     common = dict(Gamma=Gamma, e=e, model=model, cutoff=cutoff, t_section=t_section, p_max=p_max,
                   max_cycles=max_cycles, tol=tol, stick_velocity=stick_velocity, integrator=integrator,
                   max_events=max_events, soft_sticking=bool(soft_sticking))
-    params = [dict(common, w0=float(a), zeta0=float(b)) for a, b in zip(w0, z0)]
     requested = n_samples
-    try:
-        # a sample that raises is a bug, not a fault of the sample (those are status 'failed'): raise it
-        samples = sweep(_basin_sample, params, executor=executor, store=store, progress=progress,
-                        on_error="raise")
-        interrupted = False
-    except SweepInterrupted as exc:
-        # Ctrl-C: classify the samples that finished (status 5); the store keeps them for a rerun
-        done = np.array([s is not None for s in exc.results], dtype=bool)
-        samples = [s for s in exc.results if s is not None]
-        w0, z0 = w0[done], z0[done]
-        n_samples = len(samples)
-        interrupted = True
+    if compiled:
+        results = _compiled_samples(Gamma, e, w0, z0, t_section, p_max, max_cycles, tol, stick_velocity,
+                                    max_events, progress)
+    else:
+        params = [dict(common, w0=float(a), zeta0=float(b)) for a, b in zip(w0, z0)]
+        try:
+            # a sample that raises is a bug, not a fault of the sample (those are status 'failed'): raise it
+            results = sweep(_basin_sample, params, executor=executor, store=store, progress=progress,
+                            on_error="raise")
+        except SweepInterrupted as exc:
+            # Ctrl-C: classify the samples that finished (status 5); the store keeps them for a rerun
+            results = exc.results
+    done = np.array([s is not None for s in results], dtype=bool)
+    interrupted = not bool(np.all(done))
+    samples = [s for s in results if s is not None]
+    w0, z0 = w0[done], z0[done]
+    n_samples = len(samples)
 
     ball = _make_ball(Gamma, e, model, cutoff, stick_velocity, max_events, integrator, bool(soft_sticking))
     attractors, raw = [], []                 # raw: (canonical points (index = 0 mod p), period)
