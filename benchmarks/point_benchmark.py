@@ -26,11 +26,18 @@ driver loop of git revision ``REV`` (``tps_solver/fda/events.py`` and ``driver.p
 during the old runs) against the working tree, interleaved, over 10 and 310 periods, and checks
 that both give bitwise identical results on the 41-node kink and on an e = 0 run with sticking.
 
+With ``--compiled`` it runs the cases of the compiled-kernel table (21 and 101 nodes, dx 0.5 and
+0.1, flat and perturbed by 1e-6 in the heights; 10 periods): ``point`` with its numpy search
+(``compiled=False``), with the compiled search (``compiled=True``, the ``fast`` extra),
+``exact`` and heyoka, interleaved, and checks that the two ``point`` paths give the same event
+sequence (``--write``: to ``validation/sections/compiled_point.md``).
+
 heyoka is a benchmark-only dependency (``pip install heyoka``); it is skipped when absent.
 
 Run::
 
     PYTHONPATH=. python benchmarks/point_benchmark.py [--repeat 3] [--kink] [--split] [--baseline REV]
+        [--compiled [--write]]
     (from the repository root)
 """
 import argparse
@@ -298,13 +305,92 @@ def kink_check(repeat):
           f"{same}; max |dt| = {dt:.1e}")
 
 
+#: (nodes, spacing, perturbation of the heights) of the compiled-kernel table
+COMPILED_CASES = [(21, 0.5, 0.0), (21, 0.5, 1e-6), (101, 0.5, 0.0), (101, 0.5, 1e-6), (101, 0.1, 0.0)]
+
+
+def compiled_table(repeat, periods=10):
+    """Rows of ms/period for point (numpy), point (compiled), exact and heyoka on COMPILED_CASES."""
+    fl = tps.FlatLayer(GAMMA, M, E)
+    t0 = fl.t0 + 1e-6
+    rows = []
+    for n, dx, pert in COMPILED_CASES:
+        lat = tps.Lattice.planar(n_nodes=n, length=dx * (n - 1))
+        w, z = flat_state(lat, fl, t0)
+        z = z + pert * np.linspace(0.0, 1.0, n) ** 2
+        t_end = t0 + periods * fl.period + 0.5
+        methods = {
+            "point (numpy)": lambda: tps.simulate(lat, GAMMA, E, w, z, t_start=t0, t_end=t_end, method="point",
+                                                  compiled=False).events,
+            "point (compiled)": lambda: tps.simulate(lat, GAMMA, E, w, z, t_start=t0, t_end=t_end,
+                                                     method="point", compiled=True).events,
+            "exact": lambda: run_exact(lat, w, z, t0, t_end),
+        }
+        try:
+            hyk = Heyoka(lat)
+            methods["heyoka"] = lambda: hyk(lat, w, z, t0, t_end)
+        except ImportError:
+            pass
+        best, events = {k: np.inf for k in methods}, {}
+        for _ in range(repeat):
+            for name, fn in methods.items():
+                tic = time.process_time()
+                events[name] = fn()
+                best[name] = min(best[name], time.process_time() - tic)
+        a, b = events["point (numpy)"], events["point (compiled)"]
+        same = a.size == b.size and np.array_equal(a.node, b.node) and np.array_equal(a.kind, b.kind)
+        dt = float(np.max(np.abs(a.t - b.t))) if same and a.size else float("nan")
+        row = dict(nodes=n, dx=dx, perturbed=pert > 0, events=int(b.size), same=same, dt=dt,
+                   error=contact_error(b, fl) if pert == 0 else None)
+        for name in methods:
+            row[name] = 1e3 * best[name] / periods
+        hy = row.get("heyoka")
+        row["numpy/heyoka"] = row["point (numpy)"] / hy if hy else None
+        row["compiled/heyoka"] = row["point (compiled)"] / hy if hy else None
+        row["exact/compiled"] = row["exact"] / row["point (compiled)"]
+        rows.append(row)
+    return rows
+
+
+def compiled_section(rows, periods=10):
+    from validation.report import markdown_table
+
+    cols = [("nodes", "nodes"), ("dx", "dx"), ("start", lambda r: "perturbed 1e-6" if r["perturbed"] else "flat"),
+            ("events", "events"), ("point numpy ms/period", "point (numpy)"),
+            ("point compiled ms/period", "point (compiled)"), ("exact ms/period", "exact"),
+            ("heyoka ms/period", lambda r: r.get("heyoka")), ("numpy / heyoka", "numpy/heyoka"),
+            ("compiled / heyoka", "compiled/heyoka"), ("exact / compiled", "exact/compiled"),
+            ("same events (numpy, compiled)", lambda r: "yes" if r["same"] else "NO"),
+            ("max dt", "dt"), ("flat contact-time error", "error")]
+    return ("## Compiled kernels: point impacts against heyoka\n\n"
+            f"Planar Neumann lattices, Gamma = {GAMMA}, e = {E}, started on the flat orbit at t0 + 1e-6 "
+            f"(heights perturbed by 1e-6 (x/L)^2 where said), {periods} periods, one BLAS thread, CPU time, "
+            "minimum over interleaved runs; heyoka's compilation not timed "
+            "(`PYTHONPATH=. python benchmarks/point_benchmark.py --compiled --write`). `point numpy`: the "
+            "reference path (`compiled=False`); `point compiled`: the contact search of each segment as one "
+            "numba kernel (`tps_solver/solvers/fda/point_kernels.py`), the default with the `fast` extra. "
+            "'max dt': largest difference of the two paths' event times (the perturbed starts break up into "
+            "chatter, whose event times amplify last-bit differences). Flat contact-time error: max "
+            "|t - (t0 + kT)| of the compiled path.\n\n" + markdown_table(rows, cols) + "\n")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--kink", action="store_true")
     parser.add_argument("--split", action="store_true")
     parser.add_argument("--baseline", metavar="REV", help="git revision of the old event layer and driver")
+    parser.add_argument("--compiled", action="store_true", help="the compiled-kernel table (see the docstring)")
+    parser.add_argument("--write", action="store_true", help="with --compiled: write the REPORT section")
     args = parser.parse_args()
+    if args.compiled:
+        with threadpool_limits(1):
+            text = compiled_section(compiled_table(args.repeat))
+        print(text)
+        if args.write:
+            from validation.report import write_section
+            print("wrote", write_section("compiled_point", text))
+        return
     with threadpool_limits(1):
         flat_table(args.repeat)
         if args.split:

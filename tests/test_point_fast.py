@@ -314,8 +314,9 @@ def test_proposed_search_points_on_a_periodic_orbit_give_the_same_events():
             fs.confirmed = False
             return key, fs
 
-    a = _run(lat, GAMMA, E, w, z, t0, t_end)
-    b = _run(lat, GAMMA, E, w, z, t0, t_end, integrator=Sequential(lat, GAMMA, E))
+    # the batched walk belongs to the numpy path (the compiled search steps one by one)
+    a = _run(lat, GAMMA, E, w, z, t0, t_end, integrator=PointIntegrator(lat, GAMMA, E, compiled=False))
+    b = _run(lat, GAMMA, E, w, z, t0, t_end, integrator=Sequential(lat, GAMMA, E, compiled=False))
     fs = next(iter(a[4]._cache.values()))
     assert fs.confirmed and len(fs.proposal) == 4          # proposals in use (4 points after 0)
     assert a[4].n_steps == b[4].n_steps                      # the same number of search points

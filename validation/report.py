@@ -57,6 +57,7 @@ SECTION_ORDER = (
     ("basins", "Basins of the bouncing ball"),
     ("integrators", "Fast integrators: point impacts and the soft contact"),
     ("compiled", "Compiled kernels (the fast extra)"),
+    ("compiled_point", "Compiled kernels: point impacts against heyoka"),
     ("shooting", "Periodic orbits of any contact pattern by shooting"),
     ("soft_kinks", "Soft-contact kinks over lattice spacings"),
     ("continuation", "Continuation: folds and period doublings"),

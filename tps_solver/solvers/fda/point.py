@@ -79,6 +79,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from tps_solver.core import jit
 from tps_solver.model.flight import phi2_expm1
 from tps_solver.solvers.fda.base import Integrator, Step
 from tps_solver.solvers.fda.events import event_sets
@@ -416,6 +417,11 @@ class PointIntegrator(Integrator):
         ``RuntimeError`` (default 200000).
     cache_size : int, optional
         Number of free-set decompositions kept (default 64).
+    compiled : bool or None, optional
+        Run the contact search as one compiled kernel
+        (:mod:`~tps_solver.solvers.fda.point_kernels`, the ``fast`` extra); ``None`` (default):
+        where numba is installed (:func:`tps_solver.core.jit.enabled`).  ``False`` is the numpy
+        reference path.  The two find the same events (times to ~1e-15).
 
     Attributes
     ----------
@@ -447,7 +453,7 @@ class PointIntegrator(Integrator):
 
     name = "point"
     impulsive = True
-    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64}
+    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64, "compiled": None}
 
     def __init__(self, lattice, Gamma, e, **options):
         super().__init__(lattice, Gamma, e, **options)
@@ -460,6 +466,17 @@ class PointIntegrator(Integrator):
             raise ValueError(f"max_steps must be an integer >= 1, got {self.max_steps!r}")
         if self._cache_size < 1:
             raise ValueError(f"cache_size must be an integer >= 1, got {self._cache_size!r}")
+        compiled = self.options["compiled"]
+        if compiled not in (None, True, False):
+            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
+        if compiled and not jit.enabled():
+            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
+                             "not set to 0; use compiled=None or False")
+        self.compiled = jit.enabled() if compiled is None else bool(compiled)
+        self._kernels = None
+        if self.compiled:
+            from tps_solver.solvers.fda import point_kernels
+            self._kernels = point_kernels
         self._cache = OrderedDict()
         self.n_decompositions = 0
         self.n_projections = 0
@@ -588,6 +605,10 @@ class PointIntegrator(Integrator):
         # free set: on a periodic orbit it is the same search, evaluated in one product)
         ends = []
         batch = None
+        if self._kernels is not None:
+            return self._compiled_search(seg, key, fs, wF, zeta0, g0, nodal, guarded,
+                                         release_half if guarded else None, eps_w, t_stop, tau_stop, floor,
+                                         t_eval, samples, n)
         if fs.confirmed and not nodal and not guarded:
             taus = [0.0] + [p for p in fs.proposal if p < tau_stop]
             if len(taus) >= 3:
@@ -670,6 +691,37 @@ class PointIntegrator(Integrator):
                     batch = None
             self._sample(seg, tau, nxt, t_eval, samples, n)
             tau = nxt
+
+    def _compiled_search(self, seg, key, fs, wF, zeta0, g0, nodal, guarded, release_half, eps_w, t_stop,
+                         tau_stop, floor, t_eval, samples, n):
+        """The search loop of :meth:`advance` as one kernel call (:func:`.point_kernels.search`)."""
+        kn = self._kernels
+        first = _start_rows(seg, wF, zeta0, g0) if nodal else None
+        status, tau, m, steps, ends = kn.search(seg, eps_w, tau_stop, floor, self.max_steps, self.time_tol,
+                                                first, release_half)
+        self.n_steps += int(min(steps, self.max_steps))
+        F = fs.F
+        if status == kn.TOO_MANY_STEPS:
+            raise RuntimeError(f"contact search made {self.max_steps} steps without an event "
+                               f"near t = {seg.t_c + tau:.15g} (grazing contact?)")
+        if status == kn.STOP:
+            self._sample(seg, 0.0, tau_stop, t_eval, samples, n)
+            if tau_stop > 0.0:
+                wF, zF, _ = seg.state(tau_stop)
+            else:
+                wF, zF = np.array(wF), zeta0
+            self._carry = (t_stop, key, wF, seg.velocity_amplitudes(max(tau_stop, 0.0)))
+            wo, zo = _full(F, n, wF, zF)
+            return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
+        self._sample(seg, 0.0, tau, t_eval, samples, n)
+        fs.proposal, fs.last_root = _proposal(list(ends)), tau
+        out = self._finish(seg, key, tau, n, samples)
+        if out.contact.size == 0 and out.liftoff.size == 0:     # guarantee progress
+            if m < fs.nf:
+                out.contact = F[[m]]
+            else:
+                out.liftoff = fs.S[[m - fs.nf]]
+        return out
 
     # ------------------------------------------------------------ internals
     def _sample(self, seg, tau_a, tau_b, t_eval, samples, n):
