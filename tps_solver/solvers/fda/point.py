@@ -648,13 +648,7 @@ class PointIntegrator(Integrator):
             if tau + hm >= tau_stop:
                 self._sample(seg, tau, tau_stop, t_eval, samples, n)
                 self.n_steps += steps
-                if tau_stop > 0.0:
-                    wF, zF, _ = seg.state(tau_stop)
-                else:
-                    wF, zF = np.array(wF), zeta0
-                self._carry = (t_stop, key, wF, seg.velocity_amplitudes(max(tau_stop, 0.0)))
-                wo, zo = _full(F, n, wF, zF)
-                return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
+                return self._stop(seg, key, wF, zeta0, t_stop, tau_stop, n, samples)
             event = None
             fm, fpm = float(f[nf + m]), float(fp[nf + m])
             if fpm < 0.0 and fpm * fpm >= 1.25 * (float(A2[nf + m]) * max(fm, 0.0)):
@@ -706,13 +700,7 @@ class PointIntegrator(Integrator):
                                f"near t = {seg.t_c + tau:.15g} (grazing contact?)")
         if status == kn.STOP:
             self._sample(seg, 0.0, tau_stop, t_eval, samples, n)
-            if tau_stop > 0.0:
-                wF, zF, _ = seg.state(tau_stop)
-            else:
-                wF, zF = np.array(wF), zeta0
-            self._carry = (t_stop, key, wF, seg.velocity_amplitudes(max(tau_stop, 0.0)))
-            wo, zo = _full(F, n, wF, zF)
-            return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
+            return self._stop(seg, key, wF, zeta0, t_stop, tau_stop, n, samples)
         self._sample(seg, 0.0, tau, t_eval, samples, n)
         fs.proposal, fs.last_root = _proposal(list(ends)), tau
         out = self._finish(seg, key, tau, n, samples)
@@ -722,6 +710,16 @@ class PointIntegrator(Integrator):
             else:
                 out.liftoff = fs.S[[m - fs.nf]]
         return out
+
+    def _stop(self, seg, key, wF, zeta0, t_stop, tau_stop, n, samples):
+        """The Step of a segment that reached ``t_stop`` without an event."""
+        if tau_stop > 0.0:
+            wF, zF, _ = seg.state(tau_stop)
+        else:
+            wF, zF = np.array(wF), zeta0
+        self._carry = (t_stop, key, wF, seg.velocity_amplitudes(max(tau_stop, 0.0)))
+        wo, zo = _full(seg.fs.F, n, wF, zF)
+        return Step(t_stop, wo, zo, np.empty(0, np.int64), np.empty(0, np.int64), samples)
 
     # ------------------------------------------------------------ internals
     def _sample(self, seg, tau_a, tau_b, t_eval, samples, n):
