@@ -42,7 +42,12 @@ def run(case):
     if case == "find_periodic_orbit":
         lat = tps.Lattice.planar(n_nodes=41, length=40.0)
         print("ready", flush=True)
-        r = tps.lattice_kink(lat, Gamma=4.1, e=0.0, periods=0, max_iter=500, multipliers=False)
+        r = tps.lattice_kink(lat, Gamma=4.1, e=0.0, periods=0, max_iter=500, multipliers=False, symmetric=False)
+        return dict(status=r.status, message=r.message)
+    if case == "mirrored":
+        lat = tps.Lattice.planar(n_nodes=161, length=40.0)
+        print("ready", flush=True)
+        r = tps.lattice_kink(lat, Gamma=4.1, e=0.0, periods=0, multipliers=False, symmetric=True)
         return dict(status=r.status, message=r.message)
     if case == "sweep":
         from tps_solver.analyses.sweep import SweepInterrupted
@@ -87,8 +92,8 @@ except Exception as exc:
 print("RESULT " + json.dumps(out), flush=True)
 '''
 
-CASES = ["simulate", "check_stability", "shooting", "find_periodic_orbit", "tps", "branch", "branch_cycle",
-         "basins", "sweep"]
+CASES = ["simulate", "check_stability", "shooting", "find_periodic_orbit", "mirrored", "tps", "branch",
+         "branch_cycle", "basins", "sweep"]
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGINT to a subprocess is POSIX")

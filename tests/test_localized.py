@@ -95,9 +95,9 @@ def test_e0_kink_dx2_two_pinned_fronts(t_start, width, mu):
 def test_cli_lattice_kink(capsys):
     from tps_solver.cli import main
 
-    assert main(["lattice-kink", "--dx", "20", "--periods", "4", "--multipliers", "2"]) == 0
+    assert main(["lattice-kink", "--dx", "8", "--periods", "4", "--multipliers", "2"]) == 0
     out = capsys.readouterr().out
-    assert "contacts per node and period (count: nodes) = {2: 3}" in out
+    assert "contacts per node and period (count: nodes) = {2: 6}" in out
     assert "localized = True" in out and "stable = True" in out
 
 

@@ -43,7 +43,11 @@ from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.model.flat import FlatLayer
 from tps_solver.model.soft_flat import SoftFlatOrbit
 from tps_solver.operators.lattice import Lattice
+from tps_solver.core.newton import newton
+from tps_solver.core.progress import progress_state
+from tps_solver.solvers.shooting.period_map import PeriodMapError
 from tps_solver.solvers.shooting.periodic import find_periodic_orbit
+from tps_solver.solvers.shooting.symmetric import MirroredHalfPeriodMap, mirror_symmetric
 
 #: Default Newton steps of the shooting of :func:`lattice_kink` and :func:`lattice_oscillon` (the
 #: front's near-neutral multiplier makes Newton--Krylov converge linearly: 33 steps at
@@ -112,7 +116,7 @@ def _check_common(lattice, Gamma, M, e, cutoff, periods, geometry):
 
 
 def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
-                      simulate_kw, shooting_kw, callback):
+                      simulate_kw, shooting_kw, callback, symmetric=False):
     w0, z0 = state
     T = flat.period
     if method is None:
@@ -154,8 +158,48 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
             note = f"settling run failed ({run.message}); Newton started from the initial state. "
     kw = dict(shooting_kw)
     kw.update({k: v for k, v in (simulate_kw or {}).items()})
+    sym_nit, sym_periods = None, 0
+    if symmetric:
+        if t_guess is None:
+            w_s, z_s, st_s, t_s = guess.w, guess.zeta, np.asarray(guess.stuck, bool), float(guess.t)
+        else:
+            w_s, z_s, st_s, t_s = guess[0], guess[1], np.zeros(lattice.n_nodes, bool), t_start
+        if method == "soft":
+            st_s = np.zeros(lattice.n_nodes, bool)
+        try:
+            found, why, half_periods = _mirrored_solve(lattice, Gamma, e, flat.period, t_s, w_s, z_s, st_s, method,
+                                                       sim_kw, shooting_kw, callback)
+        except KeyboardInterrupt:
+            # interrupted: the settled state, not a periodic orbit (no Newton step)
+            orb = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, cutoff=cutoff, guess=guess, t_start=t_guess,
+                                      method=method, max_iter=0, section="fixed", multipliers=False,
+                                      **{k: v for k, v in (simulate_kw or {}).items()})
+            orb.update(status=5, status_text="interrupted", converged=False, success=False, localized=False,
+                       symmetric_nit=None, symmetric_periods=0.0,
+                       message="interrupted during the mirrored half-period Newton; the settled state is "
+                               "returned, not a periodic orbit (pass it as guess= to go on)")
+            return orb
+        sym_periods = 0.5 * half_periods
+        if found is not None:
+            guess, t_guess = found[:3], t_s
+            sym_nit = found[3]
+        else:
+            note += why + ("the period map's Newton went on from the settled state. " if why else "")
     orb = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, cutoff=cutoff, guess=guess, t_start=t_guess,
                               method=method, callback=callback, **kw)
+    orb.symmetric_nit = sym_nit
+    orb.symmetric_periods = sym_periods
+    if sym_nit is not None:
+        orb.message = (f"mirrored half-period Newton: {sym_nit} steps ({sym_periods:g} periods of the FDA); "
+                       "then the period map: " + orb.message)
+        mu = orb.get("multipliers")
+        if orb.converged and mu is not None and np.size(mu) and abs(complex(np.asarray(mu)[0])) > 1.0:
+            here = "a node" if lattice.n_nodes % 2 else "midway between two nodes"
+            other = "midway between two nodes" if lattice.n_nodes % 2 else "on a node"
+            note += (f"the kink centred on the lattice's mirror point ({here}) is unstable (|mu1| = "
+                     f"{abs(complex(np.asarray(mu)[0])):.6g}); a stable pinned kink, if any, is centred "
+                     f"{other}: solve on a lattice with one node more or fewer (same spacing), or with "
+                     "symmetric=False. ")
     orb.localized = bool(orb.converged) and _localized(orb)
     if orb.converged and not orb.localized:
         note += ("the phase-shifted region did not survive: the converged orbit is uniform (the flat "
@@ -175,7 +219,8 @@ def _localized(orb, n_samples=64, rel=1e-3):
 
 
 def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto", width=2.0, periods=10,
-                 t_start=None, method=None, simulate_kw=None, callback=None, max_iter=MAX_ITER, **shooting_kw):
+                 t_start=None, method=None, simulate_kw=None, callback=None, max_iter=MAX_ITER, symmetric=None,
+                 **shooting_kw):
     r"""Periodic kink on a planar lattice by settling and shooting (see the module docstring).
 
     Parameters
@@ -214,6 +259,17 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
         :func:`~tps_solver.find_periodic_orbit`: the front position is nearly neutral, its
         multiplier within 1e-3 of 1, so Newton--Krylov converges linearly there; at
         Gamma = 4.1, e = 0, dx = 1 it takes 33 steps).
+    symmetric : bool or None
+        Solve for the kink as a fixed point of the mirrored half-period map
+        (:class:`~tps_solver.solvers.shooting.symmetric.MirroredHalfPeriodMap`: half a period of
+        the FDA, then :math:`x \mapsto -x`), whose Newton does not creep along the front's
+        near-neutral translation, then polish on the period map (which also gives the
+        multipliers).  It finds the kink centred on the lattice's mirror point: a node for an
+        odd number of nodes, midway between two for an even number (the two pinned kinks).
+        ``None`` (default): where the lattice is mirror symmetric
+        (:func:`~tps_solver.solvers.shooting.symmetric.mirror_symmetric`).  If that Newton does
+        not converge, the period map's Newton goes on from the settled state and the message
+        says so.
     **shooting_kw
         Further keywords of :func:`~tps_solver.find_periodic_orbit` (``tol``,
         ``n_multipliers``, ``dense_max``, ...).
@@ -237,10 +293,11 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
     -----
     On a lattice the front is pinned: there are kinks centred at different positions
     relative to the nodes, typically alternating stable and unstable (at Gamma = 4.1,
-    e = 0, dx = 2: front widths 9.014 with :math:`|\mu_1| = 0.983` from the default start and
-    9.029 with :math:`|\mu_1| = 1.005` from ``t_start=4.3197``).  Which one Newton reaches
-    depends on the start; ``t_start`` (with ``width``) selects it, and the multipliers say
-    which kind was found.
+    e = 0, dx = 2: front widths 9.014 with :math:`|\mu_1| = 0.983` centred on a node, 9.305
+    with :math:`|\mu_1| = 1.002` centred between two nodes).  With ``symmetric`` (the default
+    on a mirror-symmetric lattice) the kink found is the one centred on the lattice's mirror
+    point, so the parity of ``n_nodes`` selects it; without, the start (``t_start``,
+    ``width``) does.  The multipliers say which kind was found.
 
     Examples
     --------
@@ -262,8 +319,41 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
     t_start = _start_time(flat) if t_start is None else check_real(t_start, "t_start")
     state = kink_state(lattice, flat, t_start, width=width)
     shooting_kw["max_iter"] = check_int(max_iter, "max_iter", minimum=0)
+    if symmetric is None:
+        symmetric = mirror_symmetric(lattice)
+    elif not isinstance(symmetric, (bool, np.bool_)):
+        raise ValueError(f"symmetric must be True, False or None, got {symmetric!r}")
+    elif symmetric and not mirror_symmetric(lattice):
+        raise ValueError("symmetric=True needs a lattice symmetric under x -> -x (Lattice.planar with "
+                         "center=0); use symmetric=False")
     return _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
-                             simulate_kw, shooting_kw, callback)
+                             simulate_kw, shooting_kw, callback, symmetric=bool(symmetric))
+
+
+def _mirrored_solve(lattice, Gamma, e, T, t_s, w, z, stuck, method, simulate_kw, shooting_kw, callback):
+    """Newton on the mirrored half-period map from (w, z, stuck) at t_s: (state or None, note)."""
+    pm = MirroredHalfPeriodMap(lattice, Gamma, e, T, t_s, stuck=stuck, method=method, **simulate_kw)
+    x0 = pm.pack(w, z)
+    tol = shooting_kw.get("tol") or (1e-11 if method != "soft" else 1e-10)
+    m = pm.m
+
+    def progress(state):
+        if callback is not None:
+            callback(progress_state("shooting", state.iteration, residual=state.residual, symmetric=True))
+
+    try:
+        sol = newton(pm, x0, tol=tol, max_iter=shooting_kw["max_iter"], linear="gmres", line_search="quadratic",
+                     merit="2", gmres_rtol=1e-4, gmres_restart=min(2 * m, 100), gmres_maxiter=1,
+                     callback=progress)
+    except PeriodMapError as exc:
+        return None, f"the mirrored half-period Newton stopped ({exc.message}); ", pm.count
+    if sol.status == 5:
+        raise KeyboardInterrupt
+    if not sol.converged:
+        return None, (f"the mirrored half-period Newton did not converge ({sol.message}, max|G(x) - x| = "
+                      f"{sol.residual:.2e} after {sol.nit} steps); "), pm.count
+    wS, zS = pm.state(sol.x)
+    return (wS, zS, stuck.copy(), sol.nit), "", pm.count
 
 
 def lattice_oscillon(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, core_radius=10.0, pattern="auto",
