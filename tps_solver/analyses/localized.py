@@ -43,11 +43,8 @@ from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.model.flat import FlatLayer
 from tps_solver.model.soft_flat import SoftFlatOrbit
 from tps_solver.operators.lattice import Lattice
-from tps_solver.core.newton import newton
-from tps_solver.core.progress import progress_state
-from tps_solver.solvers.shooting.period_map import PeriodMapError
 from tps_solver.solvers.shooting.periodic import find_periodic_orbit
-from tps_solver.solvers.shooting.symmetric import MirroredHalfPeriodMap, mirror_symmetric
+from tps_solver.solvers.shooting.symmetric import mirror_symmetric, solve_mirrored
 
 #: Default Newton steps of the shooting of :func:`lattice_kink` and :func:`lattice_oscillon` (the
 #: front's near-neutral multiplier makes Newton--Krylov converge linearly: 33 steps at
@@ -167,8 +164,9 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
         if method == "soft":
             st_s = np.zeros(lattice.n_nodes, bool)
         try:
-            found, why, half_periods = _mirrored_solve(lattice, Gamma, e, flat.period, t_s, w_s, z_s, st_s, method,
-                                                       sim_kw, shooting_kw, callback)
+            found, why, half_periods = solve_mirrored(lattice, Gamma, e, flat.period, t_s, w_s, z_s, st_s, method,
+                                                      sim_kw, tol=shooting_kw.get("tol"),
+                                                      max_iter=shooting_kw["max_iter"], callback=callback)
         except KeyboardInterrupt:
             # interrupted: the settled state, not a periodic orbit (no Newton step)
             orb = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=e, cutoff=cutoff, guess=guess, t_start=t_guess,
@@ -328,32 +326,6 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
                          "center=0); use symmetric=False")
     return _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, periods, method,
                              simulate_kw, shooting_kw, callback, symmetric=bool(symmetric))
-
-
-def _mirrored_solve(lattice, Gamma, e, T, t_s, w, z, stuck, method, simulate_kw, shooting_kw, callback):
-    """Newton on the mirrored half-period map from (w, z, stuck) at t_s: (state or None, note)."""
-    pm = MirroredHalfPeriodMap(lattice, Gamma, e, T, t_s, stuck=stuck, method=method, **simulate_kw)
-    x0 = pm.pack(w, z)
-    tol = shooting_kw.get("tol") or (1e-11 if method != "soft" else 1e-10)
-    m = pm.m
-
-    def progress(state):
-        if callback is not None:
-            callback(progress_state("shooting", state.iteration, residual=state.residual, symmetric=True))
-
-    try:
-        sol = newton(pm, x0, tol=tol, max_iter=shooting_kw["max_iter"], linear="gmres", line_search="quadratic",
-                     merit="2", gmres_rtol=1e-4, gmres_restart=min(2 * m, 100), gmres_maxiter=1,
-                     callback=progress)
-    except PeriodMapError as exc:
-        return None, f"the mirrored half-period Newton stopped ({exc.message}); ", pm.count
-    if sol.status == 5:
-        raise KeyboardInterrupt
-    if not sol.converged:
-        return None, (f"the mirrored half-period Newton did not converge ({sol.message}, max|G(x) - x| = "
-                      f"{sol.residual:.2e} after {sol.nit} steps); "), pm.count
-    wS, zS = pm.state(sol.x)
-    return (wS, zS, stuck.copy(), sol.nit), "", pm.count
 
 
 def lattice_oscillon(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, core_radius=10.0, pattern="auto",

@@ -27,10 +27,12 @@ those of :math:`P_T` (:func:`~tps_solver.find_periodic_orbit` started on the fix
 import numpy as np
 from scipy.sparse.linalg import LinearOperator
 
-from tps_solver.solvers.shooting.period_map import PeriodMap
+from tps_solver.core.newton import newton
+from tps_solver.core.progress import progress_state
+from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 
-__all__ = ["MirroredHalfPeriodMap", "mirror_symmetric"]
+__all__ = ["MirroredHalfPeriodMap", "mirror_symmetric", "solve_mirrored"]
 
 
 def mirror_symmetric(lattice, rtol=1e-12):
@@ -168,3 +170,75 @@ class MirroredHalfPeriodMap(PeriodMap):
                 perm = np.concatenate((np.arange(n)[::-1], n + np.arange(n)[::-1]))
                 return half[perm]
         return self.matrix(x, step, heights="free")
+
+
+def solve_mirrored(lattice, Gamma, e, period, t_start, w, zeta, stuck, method="exact", simulate_kw=None, *,
+                   tol=None, max_iter=80, callback=None):
+    r"""Newton on :math:`G(x) = x` (:class:`MirroredHalfPeriodMap`) from the state ``(w, zeta, stuck)`` at ``t_start``.
+
+    Parameters
+    ----------
+    lattice : Lattice
+        Planar and mirror symmetric.
+    Gamma, e : float
+    period : float
+        The kink's period :math:`T = 2\pi M`, ``M`` even.
+    t_start : float
+        The section (the time of the state).
+    w, zeta : ndarray of float, shape (n_nodes,)
+    stuck : ndarray of bool, shape (n_nodes,)
+        Nodes stuck to the plate at the section (no unknowns).
+    method : str
+        FDA method of the map.
+    simulate_kw : dict, optional
+        Keywords of :func:`~tps_solver.simulate` (``cutoff`` for the soft contact).
+    tol : float, optional
+        On :math:`\max|G(x) - x|`; default 1e-11 (1e-10 for the soft contact).
+    max_iter : int
+    callback : callable, optional
+        ``callback(state)`` after every Newton step (stage ``"shooting"``, ``symmetric=True``).
+
+    Returns
+    -------
+    found : tuple or None
+        ``(w, zeta, stuck, nit)`` of the fixed point, None if Newton did not converge.
+    why : str
+        Why not ('' when found).
+    half_periods : int
+        Half periods of the FDA integrated.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        If the Newton iteration was interrupted (status 5).
+
+    Examples
+    --------
+    >>> import tps_solver as tps
+    >>> lat = tps.Lattice.planar(n_nodes=10, length=36.0)
+    >>> orb = tps.lattice_kink(lat, Gamma=4.1, e=0.0, periods=4, multipliers=False)
+    >>> found, why, _ = solve_mirrored(lat, 4.1, 0.0, orb.period, orb.t_start, orb.w0, orb.zeta0, orb.stuck0)
+    >>> found[3], why                          # already a fixed point of G: no Newton step
+    (0, '')
+    """
+    pm = MirroredHalfPeriodMap(lattice, Gamma, e, period, t_start, stuck=stuck, method=method,
+                               **dict(simulate_kw or {}))
+    x0 = pm.pack(w, zeta)
+    tol = tol or (1e-11 if method != "soft" else 1e-10)
+
+    def progress(state):
+        if callback is not None:
+            callback(progress_state("shooting", state.iteration, residual=state.residual, symmetric=True))
+
+    try:
+        sol = newton(pm, x0, tol=tol, max_iter=max_iter, linear="gmres", line_search="quadratic", merit="2",
+                     gmres_rtol=1e-4, gmres_restart=min(2 * pm.m, 100), gmres_maxiter=1, callback=progress)
+    except PeriodMapError as exc:
+        return None, f"the mirrored half-period Newton stopped ({exc.message}); ", pm.count
+    if sol.status == 5:
+        raise KeyboardInterrupt
+    if not sol.converged:
+        return None, (f"the mirrored half-period Newton did not converge ({sol.message}, max|G(x) - x| = "
+                      f"{sol.residual:.2e} after {sol.nit} steps); "), pm.count
+    wS, zS = pm.state(sol.x)
+    return (wS, zS, np.asarray(stuck, bool).copy(), sol.nit), "", pm.count

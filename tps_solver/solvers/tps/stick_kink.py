@@ -8,8 +8,10 @@ apply).  Pipeline, each stage reported in the result:
    x < 0, the same half a period later for x > 0, a linear transition of width 2) at a
    quarter period after the far field's lift-off, settled by ``periods`` periods of the
    exact FDA;
-2. shooting on the FDA period map (:func:`tps_solver.find_periodic_orbit`), which also gives
-   the Floquet multipliers (:mod:`tps_solver.solvers.shooting.floquet`);
+2. shooting: on a mirror-symmetric lattice first Newton on the mirrored half-period map
+   (:func:`tps_solver.solvers.shooting.symmetric.solve_mirrored`: the kink centred on the lattice's
+   mirror point, in a few steps), then the FDA period map (:func:`tps_solver.find_periodic_orbit`),
+   which also gives the Floquet multipliers (:mod:`tps_solver.solvers.shooting.floquet`);
 3. the impact-and-stick TPS (:func:`tps_solver.solve_stick_lattice`) on the contact pattern
    of the shooting orbit: contact and lift-off times to Newton accuracy, the spectral
    reaction on every stick, the physical checks;
@@ -34,6 +36,7 @@ from tps_solver.model.flat import FlatLayer
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.solvers.shooting.periodic import find_periodic_orbit
+from tps_solver.solvers.shooting.symmetric import mirror_symmetric, solve_mirrored
 from tps_solver.solvers.tps.stick import solve_stick_lattice
 from tps_solver.solvers.tps.stick_pattern import check_with_fda, pattern_from_fda
 
@@ -229,8 +232,25 @@ def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_perio
             core += (_shifted_nodes(flat, run.t, run.w, run.zeta),)
     seconds.settle = time.perf_counter() - tick
     tick = time.perf_counter()
+    sym_note = ""
+    if what == "kink" and mirror_symmetric(lattice):
+        # the kink as a fixed point of the mirrored half-period map (no creeping along the front's
+        # near-neutral translation), then the period map (0 steps) for the multipliers
+        if t_guess is None:
+            w_s, z_s, st_s, t_s = run.w, run.zeta, np.asarray(run.stuck, bool), float(run.t)
+        else:
+            w_s, z_s, st_s, t_s = w0, z0, np.zeros(lattice.n_nodes, bool), t_start
+        found, why, _ = solve_mirrored(lattice, Gamma, 0.0, T, t_s, w_s, z_s, st_s, max_iter=max_iter,
+                                       callback=callback)
+        if found is not None:
+            guess, t_guess = found[:3], t_s
+            sym_note = f"mirrored half-period Newton: {found[3]} steps; "
+        else:
+            sym_note = why
     orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=0.0, guess=guess, t_start=t_guess,
                                 method="exact", max_iter=max_iter, callback=callback)
+    if sym_note:
+        orbit.message = sym_note + orbit.message
     seconds.shooting = time.perf_counter() - tick
     tick = time.perf_counter()
     note = ""
