@@ -232,7 +232,7 @@ def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_perio
             core += (_shifted_nodes(flat, run.t, run.w, run.zeta),)
     seconds.settle = time.perf_counter() - tick
     tick = time.perf_counter()
-    sym_note = ""
+    sym_note, sym_nit = "", None
     if what == "kink" and mirror_symmetric(lattice):
         # the kink as a fixed point of the mirrored half-period map (no creeping along the front's
         # near-neutral translation), then the period map (0 steps) for the multipliers
@@ -243,12 +243,13 @@ def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_perio
         found, why, _ = solve_mirrored(lattice, Gamma, 0.0, T, t_s, w_s, z_s, st_s, max_iter=max_iter,
                                        callback=callback)
         if found is not None:
-            guess, t_guess = found[:3], t_s
+            guess, t_guess, sym_nit = found[:3], t_s, found[3]
             sym_note = f"mirrored half-period Newton: {found[3]} steps; "
         else:
             sym_note = why
     orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=0.0, guess=guess, t_start=t_guess,
                                 method="exact", max_iter=max_iter, callback=callback)
+    orbit.symmetric_nit = sym_nit
     if sym_note:
         orbit.message = sym_note + orbit.message
     seconds.shooting = time.perf_counter() - tick
