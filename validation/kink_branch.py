@@ -10,9 +10,16 @@ e = 0).  At every point the width (:func:`tps_solver.front_width`,
 :func:`independent_points` re-solves three Gamma values from shooting's own default start and
 compares the leading multiplier and the state with the branch.
 
+:func:`mirrored_branch` follows the same kink as a fixed point of the mirrored half-period map
+(:class:`tps_solver.solvers.shooting.symmetric.MirroredHalfPeriodMap`, G with G^2 = P_T): its
+multipliers mu_G are the signed square roots of the period map's, so a multiplier of P_T through
++1 is either mu_G through +1 (a bifurcation within the symmetric kinks: a fold or a branch point of
+G) or mu_G through -1 (a period doubling of G: the mirror-antisymmetric mode, the front's
+translation, turns unstable -- the symmetric kink depins).
+
 ``main`` writes ``validation/sections/kink_branch.md`` and the figure
 ``validation/figures/kink_branch.png``.  Run ``python -m validation.kink_branch [--dx 2]``
-(about 15 minutes at dx = 2 on one core).
+(about 15 minutes at dx = 2 on one core; the mirrored branch about 6 minutes).
 """
 import argparse
 import os
@@ -159,12 +166,76 @@ def plot(result, path):
         plt.close(fig)
 
 
+def mirrored_branch(dx=2.0, bounds=BOUNDS, Gamma0=4.1, branch=None, **kw):
+    """The symmetric kink continued on the mirrored half-period map (dict: ``branch``, ``rows``, ``seconds``).
+
+    Rows: ``Gamma``, the leading multiplier of G (``mu_G``, its real part and modulus), the
+    period map's ``mu1 = |mu_G|^2`` and ``stable``.  A stored ``branch`` is read instead.
+    """
+    from tps_solver.solvers.shooting.symmetric import MirroredHalfPeriodMap
+
+    kw.setdefault("bothsides", True)
+    kw.setdefault("max_points", 200)
+    lat = _lattice(dx)
+    start = time.perf_counter()
+    if branch is None:
+        with one_blas_thread():
+            orb = tps.lattice_kink(lat, Gamma=Gamma0, e=0.0, symmetric=True)
+            if not orb.converged:
+                raise RuntimeError(f"no symmetric kink at Gamma = {Gamma0}: {orb.message}")
+            G = MirroredHalfPeriodMap(lat, Gamma0, 0.0, orb.period, orb.t_start, stuck=orb.stuck0)
+            branch = tps.continue_branch((G, G.pack(orb.w0, orb.zeta0)), "Gamma", bounds, **kw)
+    rows = []
+    for k, g in enumerate(branch.parameter_values):
+        mu = np.asarray(branch.multipliers[k])
+        lead = complex(mu[np.argmax(np.abs(mu))]) if mu.size else complex("nan")
+        rows.append(dict(Gamma=float(g), mu_G_real=lead.real, mu_G_abs=abs(lead), mu1=abs(lead) ** 2,
+                         stable=bool(branch.stable[k])))
+    return dict(branch=branch, rows=rows, seconds=time.perf_counter() - start)
+
+
+def mirrored_text(res, dx, old_branch=None):
+    """The REPORT paragraph and table of :func:`mirrored_branch` (``old_branch``: the period map's, to compare)."""
+    br = res["branch"]
+    sp = ", ".join(f"{kind} at Gamma = {value:.6g}" for kind, value in br.special_points) or "none"
+    meaning = {"period_doubling": "mu_G through -1: the front's translation (mirror-antisymmetric) turns "
+                                  "unstable, the symmetric kink depins",
+               "branch_point": "mu_G through +1 within the symmetric kinks", "fold": "a fold of symmetric kinks"}
+    said = "; ".join(f"{kind} at {value:.6g}: {meaning.get(kind, kind)}" for kind, value in br.special_points)
+    old = ""
+    if old_branch is not None:
+        bps = [v for kind, v in old_branch.special_points if kind == "branch_point"]
+        if bps:
+            old = (f" The period map's branch above types a branch point at Gamma = {bps[0]:.6g}; here it is "
+                   + ("the same point, identified" if any(kind == "period_doubling" and abs(v - bps[0]) < 1e-3
+                                                            for kind, v in br.special_points)
+                      else "not matched by a special point of G within 1e-3") + ".")
+    stride = max(1, len(res["rows"]) // 30)
+    table = res["rows"][::stride] + ([res["rows"][-1]] if (len(res["rows"]) - 1) % stride else [])
+    return "\n".join([
+        "### The symmetric kink on the mirrored half-period map", "",
+        f"The same kink (dx = {dx:g}) continued as a fixed point of G = S o P_(T/2) (`tps.continue_branch` on "
+        "`MirroredHalfPeriodMap`; `mirrored_branch` in `python -m validation.kink_branch`, "
+        f"{res['seconds']:.0f} s). G's multipliers are signed square roots of the period map's. Branch status "
+        f"{br.status}: {br.message}. Special points: {sp}" + (f" ({said})" if said else "") + "." + old, "",
+        markdown_table(table, [(k, k) for k in ("Gamma", "mu_G_real", "mu_G_abs", "mu1", "stable")]),
+    ])
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dx", type=float, default=2.0)
     ap.add_argument("--check", type=float, nargs="+", default=[3.95, 4.2, 4.5])
     ap.add_argument("--reuse", action="store_true", help="measure the stored branch instead of recomputing it")
+    ap.add_argument("--reuse-mirrored", action="store_true", help="read the stored mirrored branch")
     args = ap.parse_args(argv)
+    stored_m = os.path.join(DATA, f"mirrored_dx{args.dx:g}.npz")
+    if args.reuse_mirrored and os.path.exists(stored_m):
+        mres = mirrored_branch(args.dx, branch=tps.load_branch(stored_m))
+    else:
+        mres = mirrored_branch(args.dx)
+        os.makedirs(DATA, exist_ok=True)
+        mres["branch"].save(stored_m)
     stored = os.path.join(DATA, f"branch_dx{args.dx:g}.npz")
     if args.reuse and os.path.exists(stored):
         res = gamma_branch(args.dx, branch=tps.load_branch(stored))
@@ -210,6 +281,7 @@ def main(argv=None):
         markdown_table(checks, [(k, k) for k in ("Gamma", "independent_converged", "branch_converged",
                                                 "mu1_independent", "mu1_branch", "mu1_difference",
                                                 "state_difference", "same_as")]),
+        "", mirrored_text(mres, args.dx, br),
     ]
     publish("kink_branch", "\n".join(text))
 
