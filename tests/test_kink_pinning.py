@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from tps_solver.core.bunch import Bunch
-from validation.kink_pinning import both_pinned, continuum_width, pinned_kink, symmetry_centre
+from validation.kink_pinning import both_pinned, continuum_width, mean_increments, pinned_kink, symmetry_centre
 
 
 def manufactured(c, dx=1.0, n=41):
@@ -55,3 +55,4 @@ def test_both_pinned_and_continuum_width():
     w, err = continuum_width([p1, p2])
     assert w == pytest.approx(7.337) and err == pytest.approx(0.005 + 0.007)
     assert continuum_width([p1]) == (None, None)
+    assert mean_increments([p2, p1]) == pytest.approx([0.007])

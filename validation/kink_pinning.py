@@ -130,6 +130,12 @@ def continuum_width(pairs):
     return s[-1]["mean"], 0.5 * abs(s[-1]["gap"]) + abs(s[-1]["mean"] - s[-2]["mean"])
 
 
+def mean_increments(pairs):
+    """Changes of the mean pinned width from each spacing to the next finer one (coarse to fine)."""
+    s = sorted([p for p in pairs if p["mean"] is not None], key=lambda p: -p["dx"])
+    return [b["mean"] - a["mean"] for a, b in zip(s[:-1], s[1:])]
+
+
 def old_shooting(Gamma, dx):
     """The cached row of the former study (period-map shooting from the default start), or None."""
     path = os.path.join(CACHE, f"G{Gamma:g}_dx{dx:g}.json")
@@ -159,7 +165,10 @@ def main(argv=None):
                                   new_seconds=node["seconds"], ratio=old["seconds"] / node["seconds"]))
         pairs += gp
         w, err = continuum_width(gp)
-        est.append(dict(Gamma=G, dx_min=min(args.dx), width=w, error=err))
+        inc = mean_increments(gp)
+        est.append(dict(Gamma=G, dx_min=min(args.dx), width=w, error=err,
+                        increments=", ".join(f"{d:+.4f}" for d in inc),
+                        converging="yes" if len(inc) >= 2 and abs(inc[-1]) <= 0.5 * abs(inc[-2]) else "no"))
     cols = [(k, k) for k in ("Gamma", "dx", "centre", "n_nodes", "converged", "symmetric_nit", "nit", "residual",
                             "found_centre", "symmetry_error", "mu1", "pinning", "width", "seconds")]
     text = [
@@ -176,8 +185,12 @@ def main(argv=None):
         markdown_table(pairs, [(k, k) for k in ("Gamma", "dx", "mu_node", "mu_bond", "stable", "pinning",
                                                 "width_node", "width_bond", "mean", "gap", "seconds")]), "",
         "Continuum width: the mean of the two pinned widths at the finest spacing; error bar: half their gap "
-        "there plus the change of the mean from the next coarser spacing:", "",
-        markdown_table(est, [(k, k) for k in ("Gamma", "dx_min", "width", "error")]),
+        "there plus the change of the mean from the next coarser spacing. `increments`: the change of the mean "
+        "per halving of dx (coarse to fine); `converging`: whether the last increment is at most half the one "
+        "before (a sequence that converges at least linearly). Where it is 'no', the finest value and its "
+        "error bar are not a continuum width: the mean still grows by a near-constant amount per halving "
+        "(the front widens under refinement).", "",
+        markdown_table(est, [(k, k) for k in ("Gamma", "dx_min", "width", "error", "increments", "converging")]),
     ]
     if speed:
         text += ["", "Cost against the former study (period-map shooting from the default start, its own "
