@@ -196,7 +196,8 @@ def solve_mirrored(lattice, Gamma, e, period, t_start, w, zeta, stuck, method="e
         On :math:`\max|G(x) - x|`; default 1e-11 (1e-10 for the soft contact).
     max_iter : int
     callback : callable, optional
-        ``callback(state)`` after every Newton step (stage ``"shooting"``, ``symmetric=True``).
+        ``callback(state)`` after every Newton step (stage ``"shooting"``, ``symmetric=True``, ``x`` the
+        iterate of :math:`G`'s unknowns).
 
     Returns
     -------
@@ -228,7 +229,7 @@ def solve_mirrored(lattice, Gamma, e, period, t_start, w, zeta, stuck, method="e
 
     def progress(state):
         if callback is not None:
-            callback(progress_state("shooting", state.iteration, residual=state.residual, symmetric=True))
+            callback(progress_state("shooting", state.iteration, residual=state.residual, x=state.x, symmetric=True))
 
     try:
         sol = newton(pm, x0, tol=tol, max_iter=max_iter, linear="gmres", line_search="quadratic", merit="2",
