@@ -275,3 +275,30 @@ def test_branch_point_is_typed_where_a_multiplier_passes_plus_one():
     assert [k for k, _ in kinds] == ["branch_point"]
     assert abs(kinds[0][1]) < 1e-9
     assert br.stable[0] and not br.stable[-1]
+
+
+def test_continuation_starts_at_the_end_of_the_parameter_range():
+    """From e = 0 (the completely inelastic layer) dF/de is one-sided: a central difference would ask
+    for e = -1e-6 and be refused.  Manufactured branch x = (1 + e)^2."""
+    from tps_solver.core.problem import Problem
+
+    class Square(Problem):
+        def __init__(self, e=0.0):
+            self.e = e
+
+        @property
+        def parameters(self):
+            return {"e": self.e}
+
+        def at(self, **values):
+            return Square(values.get("e", self.e))
+
+        def residual(self, x):
+            return np.array([x[0] - (1.0 + self.e) ** 2]), None
+
+        def jacobian(self, x, F, data):
+            return np.eye(1)
+
+    br = tps.continue_branch((Square(0.0), np.array([1.0])), "e", (0.0, 0.5), multipliers=False, step=0.02)
+    assert br.status == 0 and br.parameter_values[0] == 0.0 and br.parameter_values[-1] >= 0.5
+    assert np.max(np.abs(br.states[:, 0] - (1.0 + br.parameter_values) ** 2)) <= 1e-12

@@ -370,9 +370,22 @@ class _LawFlatProblem:
 
 
 def _dF_dp(problem, x, p):
-    """dF/dp by a central difference of relative step 1e-6."""
+    """dF/dp by a central difference of relative step 1e-6; one-sided (second order) at the end of the
+    parameter's range (e = 0: the completely inelastic layer)."""
     hp = 1e-6 * max(1.0, abs(p))
-    return (problem.residual(x, p + hp) - problem.residual(x, p - hp)) / (2.0 * hp)
+    try:
+        return (problem.residual(x, p + hp) - problem.residual(x, p - hp)) / (2.0 * hp)
+    except _Refused as exc:
+        if "out of range" not in str(exc):
+            raise
+    for h in (hp, -hp):
+        try:
+            return (-3.0 * problem.residual(x, p) + 4.0 * problem.residual(x, p + h)
+                    - problem.residual(x, p + 2.0 * h)) / (2.0 * h)
+        except _Refused as exc:
+            if "out of range" not in str(exc):
+                raise
+    raise _Refused(f"no parameter step around {p:.6g} stays in range")
 
 
 class _CycleProblem:
