@@ -25,3 +25,18 @@ def test_gamma_branch_coarse_against_independent_solves():
         assert row["independent_converged"] and row["branch_converged"]
         assert row["mu1_difference"] < 1e-5
         assert row["state_difference"] < 1e-7
+
+
+def test_retrace_after_a_jump_is_cut():
+    """A branch that jumps at its largest Gamma and comes back over its own points is cut before the jump;
+    a branch that turns at a genuine fold onto new points is kept whole."""
+    from validation.kink_branch import _retrace
+
+    up = np.linspace(3.9, 4.5, 13)
+    mu = 1.0 + 0.1 * (up - 4.25)
+    retraced = np.concatenate((up, [4.6], up[::-1][1:]))
+    mu_r = np.concatenate((mu, [1.2], mu[::-1][1:]))
+    assert _retrace(retraced, mu_r) == 13
+    folded = np.concatenate((up, up[::-1][1:]))
+    assert _retrace(folded, np.concatenate((mu, mu[::-1][1:] + 0.05))) is None
+    assert _retrace(up, mu) is None

@@ -22,6 +22,7 @@ translation, turns unstable -- the symmetric kink depins).
 (about 15 minutes at dx = 2 on one core; the mirrored branch about 6 minutes).
 """
 import argparse
+import json
 import os
 import time
 
@@ -189,35 +190,72 @@ def mirrored_branch(dx=2.0, bounds=BOUNDS, Gamma0=4.1, branch=None, **kw):
     for k, g in enumerate(branch.parameter_values):
         mu = np.asarray(branch.multipliers[k])
         lead = complex(mu[np.argmax(np.abs(mu))]) if mu.size else complex("nan")
-        rows.append(dict(Gamma=float(g), mu_G_real=lead.real, mu_G_abs=abs(lead), mu1=abs(lead) ** 2,
+        rows.append(dict(Gamma=float(g), mu_G_real=f"{lead.real:.6f}", mu_G_abs=abs(lead), mu1=abs(lead) ** 2,
                          stable=bool(branch.stable[k])))
     return dict(branch=branch, rows=rows, seconds=time.perf_counter() - start)
 
 
+def _retrace(values, mu1, tol=1e-3):
+    """Index of the turning point after which the branch retraces itself, or None.
+
+    After the largest parameter value the branch is a retrace when its later points repeat earlier
+    ones (the same parameter and |mu1| to ``tol``); the point at the turn is where the corrector
+    jumped (at the non-smooth section), so the trusted part ends before it."""
+    p, m = np.asarray(values, float), np.asarray(mu1, float)
+    k = int(np.argmax(p))
+    later = [(p[j], m[j]) for j in range(k + 1, p.size)]
+    earlier = [(p[j], m[j]) for j in range(k)]
+    repeats = sum(any(abs(a - c) < 1e-2 and abs(b - d) < tol for c, d in earlier) for a, b in later)
+    return k if later and repeats >= 0.5 * len(later) else None
+
+
 def mirrored_text(res, dx, old_branch=None):
-    """The REPORT paragraph and table of :func:`mirrored_branch` (``old_branch``: the period map's, to compare)."""
+    """The REPORT paragraph and table of :func:`mirrored_branch` (``old_branch``: the period map's, to compare).
+
+    A corrector that jumps (a parameter step ten times the median before it: the non-smooth point where
+    a node touches the plate at the section) ends the trusted part of the branch; what follows is
+    reported, not used."""
     br = res["branch"]
-    sp = ", ".join(f"{kind} at Gamma = {value:.6g}" for kind, value in br.special_points) or "none"
-    meaning = {"period_doubling": "mu_G through -1: the front's translation (mirror-antisymmetric) turns "
-                                  "unstable, the symmetric kink depins",
-               "branch_point": "mu_G through +1 within the symmetric kinks", "fold": "a fold of symmetric kinks"}
-    said = "; ".join(f"{kind} at {value:.6g}: {meaning.get(kind, kind)}" for kind, value in br.special_points)
+    rows = res["rows"]
+    cut = _retrace(br.parameter_values, [r["mu1"] for r in rows])
+    keep = len(rows) if cut is None else cut
+    sps = [sp for sp in br.special_points if cut is None or getattr(sp, "index", 0) < cut]
+    uniq = []
+    for sp in sps:
+        if not any(sp[0] == u[0] and abs(sp[1] - u[1]) < 1e-5 for u in uniq):
+            uniq.append(sp)
+    meaning = {"period_doubling": "mu_G passes -1: the front's translation (the mirror-antisymmetric mode) "
+                                  "changes stability, the symmetric kink pins or depins",
+               "branch_point": "mu_G passes +1 within the symmetric kinks", "fold": "a fold of symmetric kinks"}
+    said = "; ".join(f"{kind} at Gamma = {value:.7g} ({meaning.get(kind, kind)})" for kind, value in uniq) or "none"
+    jump = ""
+    if cut is not None:
+        p = br.parameter_values
+        jump = (f" At Gamma = {p[cut - 1]:.5g} the corrector jumped to {p[cut]:.5g} (near where a node reaches "
+                f"the plate at the section and the map is not smooth) and then retraced the branch downwards "
+                f"(the same points and special points again); only the {cut} points before the jump are used.")
     old = ""
     if old_branch is not None:
         bps = [v for kind, v in old_branch.special_points if kind == "branch_point"]
         if bps:
-            old = (f" The period map's branch above types a branch point at Gamma = {bps[0]:.6g}; here it is "
-                   + ("the same point, identified" if any(kind == "period_doubling" and abs(v - bps[0]) < 1e-3
-                                                            for kind, v in br.special_points)
-                      else "not matched by a special point of G within 1e-3") + ".")
-    stride = max(1, len(res["rows"]) // 30)
-    table = res["rows"][::stride] + ([res["rows"][-1]] if (len(res["rows"]) - 1) % stride else [])
+            same = any(kind == "period_doubling" and abs(v - bps[0]) < 1e-3 for kind, v in uniq)
+            old = (f" The period map's branch above types a branch point at Gamma = {bps[0]:.7g}; "
+                   + ("G has a period doubling there: the branch point is the depinning of the symmetric kink "
+                      "(its translation mode), not a new family of symmetric kinks." if same
+                      else "G has no special point within 1e-3 of it."))
+    stable = [r for r in rows[:keep] if r["stable"]]
+    window = (f" Stable at the computed points from Gamma = {min(r['Gamma'] for r in stable):.4g} to "
+              f"{max(r['Gamma'] for r in stable):.4g} (the period doublings bound the window)." if stable
+              else " Unstable everywhere on the branch.")
+    part = rows[:keep]
+    stride = max(1, len(part) // 30)
+    table = part[::stride] + ([part[-1]] if (len(part) - 1) % stride else [])
     return "\n".join([
         "### The symmetric kink on the mirrored half-period map", "",
         f"The same kink (dx = {dx:g}) continued as a fixed point of G = S o P_(T/2) (`tps.continue_branch` on "
         "`MirroredHalfPeriodMap`; `mirrored_branch` in `python -m validation.kink_branch`, "
-        f"{res['seconds']:.0f} s). G's multipliers are signed square roots of the period map's. Branch status "
-        f"{br.status}: {br.message}. Special points: {sp}" + (f" ({said})" if said else "") + "." + old, "",
+        f"{res['seconds']:.0f} s). G's multipliers are signed square roots of the period map's. Special points: "
+        f"{said}.{window}{jump}{old}", "",
         markdown_table(table, [(k, k) for k in ("Gamma", "mu_G_real", "mu_G_abs", "mu1", "stable")]),
     ])
 
@@ -230,12 +268,16 @@ def main(argv=None):
     ap.add_argument("--reuse-mirrored", action="store_true", help="read the stored mirrored branch")
     args = ap.parse_args(argv)
     stored_m = os.path.join(DATA, f"mirrored_dx{args.dx:g}.npz")
+    cost_m = stored_m.replace(".npz", "_seconds.json")
     if args.reuse_mirrored and os.path.exists(stored_m):
         mres = mirrored_branch(args.dx, branch=tps.load_branch(stored_m))
+        mres["seconds"] = json.load(open(cost_m))["seconds"] if os.path.exists(cost_m) else float("nan")
     else:
         mres = mirrored_branch(args.dx)
         os.makedirs(DATA, exist_ok=True)
         mres["branch"].save(stored_m)
+        with open(cost_m, "w") as fh:
+            json.dump({"seconds": mres["seconds"]}, fh)
     stored = os.path.join(DATA, f"branch_dx{args.dx:g}.npz")
     if args.reuse and os.path.exists(stored):
         res = gamma_branch(args.dx, branch=tps.load_branch(stored))
