@@ -55,6 +55,7 @@ SECTION_ORDER = (
     ("restitution_fronts", "Kinks and oscillons with a speed-dependent restitution"),
     ("thickness_oscillons", "Oscillon cores in the thickness model (docs/thickness.md)"),
     ("kink_branch", "The e = 0 kink continued in Gamma"),
+    ("kink_ebranch", "The e = 0 kink continued in e"),
     ("basins", "Basins of the bouncing ball"),
     ("integrators", "Fast integrators: point impacts and the soft contact"),
     ("compiled", "Compiled kernels (the fast extra)"),
