@@ -219,6 +219,28 @@ def test_shooting_orbit_input_is_validated():
         ts.solve_stick_lattice(lat, 4.1, pattern=(orb.w0, orb.zeta0))
 
 
+def test_evaluate_nodes_is_the_pairwise_evaluation():
+    """The modal-first evaluation at all nodes equals the request-by-request one (a kink on 6
+    nodes: impulses, stick segments and times inside them); the antiderivative's low modes
+    cancel, so its agreement is a multiple of eps times ~1/(lambda_1^2 T)."""
+    lat = tps.Lattice.planar(n_nodes=6, length=40.0)
+    sol = tps.solve_kink(4.1, e=0.0, lattice=lat)
+    assert sol.converged
+    pr, x = sol.problem, sol.unknowns
+    p = sol.pattern
+    inside = np.nan_to_num(0.5 * (p.t + p.tau), nan=1.0)       # mid-stick times (and others)
+    times = np.concatenate([np.linspace(0.0, sol.period, 97, endpoint=False), p.t, p.t + 1e-9, inside])
+    n = lat.n_nodes
+    nodes, rep = np.tile(np.arange(n), times.size), np.repeat(times, n)
+    eps = np.finfo(float).eps
+    lam1 = float(np.max(pr.m.lam[pr.m.lam < -1e-12]))
+    for W, bound in ((False, 64 * eps), (True, 64 * eps / (lam1 ** 2 * sol.period))):
+        ref = pr.evaluate(x, nodes, rep, np.full(nodes.size, W)).reshape(times.size, n)
+        got = pr.evaluate_nodes(x, times, W)
+        assert got.shape == (times.size, n)
+        assert np.max(np.abs(got - ref)) <= bound * max(1.0, float(np.max(np.abs(ref))))
+
+
 def _e0_kink_orbit(Gamma, dx):
     from validation.shooting import e0_kink_guess
 

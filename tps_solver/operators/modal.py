@@ -58,6 +58,20 @@ def _forms(lam, tau, T, threshold):
     return lam, tau, mu, np.abs(mu) > threshold
 
 
+def _by_modes(lam, tau, threshold, T):
+    """For ``lam`` of shape (1, ..., 1, P) and ``tau`` of shape (..., 1): the modes of each form.
+
+    Returns None for other shapes (the elementwise masks of :func:`_forms` then apply).
+    """
+    lam, tau = np.asarray(lam, dtype=float), np.asarray(tau, dtype=float)
+    if (lam.ndim == 0 or lam.ndim != tau.ndim or tau.shape[-1] != 1 or lam.shape[-1] == 1
+            or any(d != 1 for d in lam.shape[:-1])):
+        return None
+    lam = lam.reshape(-1)
+    big = np.abs(lam * T) > threshold
+    return lam, tau, np.nonzero(big)[0], np.nonzero(~big)[0]
+
+
 def kernel(lam, tau, T, at_jump="mean"):
     r"""The all-orders periodic kernel :math:`H(\lambda, \tau)` (module docstring), vectorised.
 
@@ -84,18 +98,36 @@ def kernel(lam, tau, T, at_jump="mean"):
     >>> float(kernel(0.0, 0.0, 4.0)), float(kernel(0.0, 0.0, 4.0, at_jump="right"))
     (0.0, 0.5)
     """
-    lam, tau, mu, big = _forms(lam, tau, T, _DIRECT)
-    x = tau / T
-    p1 = phi1(mu)
-    f2 = taylor_tail(mu, 2)
-    ls = np.where(big, lam, -1.0)
-    direct = -np.exp(ls * tau) / np.expm1(ls * T) + 1.0 / (ls * T)
-    val = np.where(big, direct, (f2 - x * phi1(mu * x)) / p1)
+    modes = _by_modes(lam, tau, _DIRECT, T)
+    if modes is not None:           # the callers' layout: the same form for a mode at every tau
+        lam, tau, ib, isml = modes
+        val = np.empty(tau.shape[:-1] + lam.shape)
+        lb = lam[ib]
+        val[..., ib] = -np.exp(lb * tau) / np.expm1(lb * T) + 1.0 / (lb * T)
+        if isml.size:
+            ms, xs = lam[isml] * T, tau / T
+            val[..., isml] = (taylor_tail(ms, 2) - xs * phi1(ms * xs)) / phi1(ms)
+        tau = np.broadcast_to(tau, val.shape)
+    else:
+        val = _kernel_masked(lam, tau, T)
     if at_jump == "right":
         return val
     if at_jump != "mean":
         raise ValueError(f"at_jump must be 'mean' or 'right', got {at_jump!r}")
     return np.where(tau == 0.0, val - 0.5, val)
+
+
+def _kernel_masked(lam, tau, T):
+    lam, tau, mu, big = _forms(lam, tau, T, _DIRECT)
+    val = np.empty(mu.shape)
+    # each form only where it is used (most modes of a fine lattice take the textbook form)
+    lb, tb = lam[big], tau[big]
+    val[big] = -np.exp(lb * tb) / np.expm1(lb * T) + 1.0 / (lb * T)
+    small = ~big
+    if small.any():
+        ms, xs = mu[small], tau[small] / T
+        val[small] = (taylor_tail(ms, 2) - xs * phi1(ms * xs)) / phi1(ms)
+    return val
 
 
 def kernel_integral(lam, tau, T):
@@ -108,15 +140,29 @@ def kernel_integral(lam, tau, T):
     >>> round(float(kernel_integral(0.0, 0.0, 4.0)), 15), round(float(kernel_integral(-1e-12, 2.0, 4.0)), 12)
     (-0.333333333333333, 0.166666666667)
     """
+    modes = _by_modes(lam, tau, _DIRECT_INT, T)
+    if modes is not None:
+        lam, tau, ib, isml = modes
+        out = np.empty(tau.shape[:-1] + lam.shape)
+        lb = lam[ib]
+        out[..., ib] = (-np.exp(lb * tau) / (lb * np.expm1(lb * T)) + tau / (lb * T) + 1.0 / (lb * lb * T)
+                        - 0.5 / lb)
+        if isml.size:
+            ms, xs = lam[isml] * T, tau / T
+            f2 = taylor_tail(ms, 2)
+            out[..., isml] = T * (f2 * xs - xs * xs * taylor_tail(ms * xs, 2) - (0.5 * f2 - taylor_tail(ms, 3))) / phi1(ms)
+        return out
     lam, tau, mu, big = _forms(lam, tau, T, _DIRECT_INT)
-    x = tau / T
-    f2 = taylor_tail(mu, 2)
-    f3 = taylor_tail(mu, 3)
-    small = T * (f2 * x - x * x * taylor_tail(mu * x, 2) - (0.5 * f2 - f3)) / phi1(mu)
-    ls = np.where(big, lam, -1.0)
-    direct = (-np.exp(ls * tau) / (ls * np.expm1(ls * T)) + tau / (ls * T) + 1.0 / (ls * ls * T)
-              - 0.5 / ls)
-    return np.where(big, direct, small)
+    out = np.empty(mu.shape)
+    lb, tb = lam[big], tau[big]
+    out[big] = (-np.exp(lb * tb) / (lb * np.expm1(lb * T)) + tb / (lb * T) + 1.0 / (lb * lb * T)
+                - 0.5 / lb)
+    small = ~big
+    if small.any():
+        ms, xs = mu[small], tau[small] / T
+        f2 = taylor_tail(ms, 2)
+        out[small] = T * (f2 * xs - xs * xs * taylor_tail(ms * xs, 2) - (0.5 * f2 - taylor_tail(ms, 3))) / phi1(ms)
+    return out
 
 
 class ModalBasis:
