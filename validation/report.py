@@ -56,6 +56,7 @@ SECTION_ORDER = (
     ("thickness_oscillons", "Oscillon cores in the thickness model (docs/thickness.md)"),
     ("kink_branch", "The e = 0 kink continued in Gamma"),
     ("kink_ebranch", "The e = 0 kink continued in e"),
+    ("stick_discovery", "The TPS finds the e = 0 kink itself: discovery from the anti-continuum limit"),
     ("basins", "Basins of the bouncing ball"),
     ("integrators", "Fast integrators: point impacts and the soft contact"),
     ("compiled", "Compiled kernels (the fast extra)"),

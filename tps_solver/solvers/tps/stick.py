@@ -335,10 +335,10 @@ def _checks(sol, problem, x):
                  touch_and_go_acceleration=acc, all_pass=bool(ok))
 
 
-def _solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
-                   n_harmonics, callback=None):
+def solve_pattern(modal, pattern, lattice_nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
+                   n_harmonics, callback=None, margins=None):
     start = time.perf_counter()
-    problem = StickProblem(modal, pattern, Gamma, e, n_basis, n_quad)
+    problem = StickProblem(modal, pattern, Gamma, e, n_basis, n_quad, margins)
     _check_newton_cost(problem, len(lattice_nodes))
     x, status, message, nit, history = _newton(problem, problem.initial(), tol, max_iter, callback)
     solve_time = time.perf_counter() - start
@@ -463,7 +463,7 @@ def solve_stick_flat(Gamma=4.1, M=2, e=0.0, n_harmonics=32, *, n_nodes=1, length
                         np.tile(-orb.w_minus + perturbation, n_nodes),
                         np.tile(orb.tau + perturbation, n_nodes), np.full(node.size, -1),
                         np.zeros(node.size, dtype=int), n_nodes, orb.period)
-    sol = _solve_pattern(ModalBasis(lat, period=orb.period), pat, lat.nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
+    sol = solve_pattern(ModalBasis(lat, period=orb.period), pat, lat.nodes, Gamma, M, e, n_basis, n_quad, tol, max_iter,
                          n_harmonics)
     sol.exact = orb
     w, z = orb.orbit.velocity, orb.orbit.height
@@ -590,7 +590,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
         check_pattern(pattern)
         source = "user pattern"
     modal = ModalBasis(lattice, period=T)
-    sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
+    sol = solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
                          max_iter, n_harmonics, callback)
     sol.fda = run
     sol.orbit = orbit
@@ -609,7 +609,7 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
         except ValueError:
             break
         source += f"; pattern re-read from an FDA run on the last iterate ({k + 1})"
-        sol = _solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
+        sol = solve_pattern(modal, pattern, lattice.nodes, Gamma, M, e, n_basis, n_quad, tol,
                              max_iter, n_harmonics, callback)
         sol.fda = run
         sol.orbit = orbit

@@ -119,9 +119,15 @@ class StickProblem(Problem):
     and ``coef``: ``v = forcing + B_imp J + B_int coef + b_int.sum(1)``.
     """
 
-    def __init__(self, modal, pattern, Gamma, e, n_basis, n_quad):
+    def __init__(self, modal, pattern, Gamma, e, n_basis, n_quad, margins=None):
         self.inputs = {"modal": modal, "pattern": pattern, "Gamma": Gamma, "e": e, "n_basis": n_basis,
                        "n_quad": n_quad}                                  # for the file codec
+        # neighbour impacts / lift-offs closer than these to an end of a stick interval do not cut
+        # it (the defaults resolve the reaction to rounding; coarser ones merge near-coincident
+        # events, as the continuation of :mod:`tps_solver.solvers.tps.stick_discovery` does)
+        self.break_margin, self.lift_margin = (_BREAK_MARGIN, _LIFT_MARGIN) if margins is None else margins
+        if margins is not None:
+            self.inputs["margins"] = tuple(float(m) for m in margins)
         self.m = modal
         self.p = pattern
         self.Gamma, self.e = Gamma, e
@@ -181,7 +187,7 @@ class StickProblem(Problem):
                     while tv + m * T < b0:
                         tm = tv + m * T
                         key = canonical(idx, m)
-                        margin = _BREAK_MARGIN if key[0] < C else _LIFT_MARGIN
+                        margin = self.break_margin if key[0] < C else self.lift_margin
                         if key not in own and a0 + margin < tm < b0 - margin:
                             pts.append((tm, key[0], key[1]))
                         m += 1
@@ -190,7 +196,7 @@ class StickProblem(Problem):
             for tm, idx, m in pts:         # one cut per event (a triggered lift-off is its trigger)
                 if (idx, m) in seen:
                     continue
-                if not kept or tm - kept[-1][0] > _BREAK_MARGIN:
+                if not kept or tm - kept[-1][0] > self.break_margin:
                     kept.append((tm, idx, m))
                 elif idx < C:
                     kept[-1] = (tm, idx, m)
