@@ -30,8 +30,12 @@ def test_discovered_kink_is_the_shooting_kink():
     (an independent Newton on the FDA's period map), contact and lift-off times to 1e-9, the pattern
     (touch-and-go at the two front nodes, triggered lift-offs none) identical."""
     lat = tps.Lattice.planar(n_nodes=6, length=20.0)
-    sol = discover_stick_kink(lat, 4.1, coupling_start=0.02, step=0.4)
+    sol = tps.solve_kink(4.1, e=0.0, lattice=lat, start="anticontinuum")      # the front door
     ref = tps.lattice_kink(lat, Gamma=4.1, e=0.0)
+    assert sol.formulation.startswith("impact-and-stick TPS, pattern discovered")
+    # its multipliers (the period map at the TPS orbit) are shooting's
+    assert abs(abs(sol.multipliers[0]) - abs(ref.multipliers[0])) < 1e-6
+    assert sol.fda_check.passed and sol.fda_check.periods == 10
     assert sol.converged and sol.checks.all_pass and ref.converged
     assert sol.residual < 1e-10 and sol.discovery.reached == 1.0
     assert len(sol.discovery.changes) > 0                      # the pattern did change along the path
@@ -56,6 +60,10 @@ def test_discovery_reports_an_unfinished_path():
 
 def test_discovery_input_is_validated():
     lat = tps.Lattice.planar(n_nodes=6, length=20.0)
+    with pytest.raises(ValueError, match="start must be"):
+        tps.solve_kink(4.1, e=0.0, lattice=lat, start="fda")
+    with pytest.raises(ValueError, match="start applies to the e = 0 kink only"):
+        tps.solve_kink(4.1, e=0.45, start="anticontinuum")
     with pytest.raises(ValueError, match="coupling_start must be in"):
         discover_stick_kink(lat, 4.1, coupling_start=1.5)
     with pytest.raises(ValueError, match="planar tps.Lattice"):

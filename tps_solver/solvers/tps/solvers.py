@@ -376,7 +376,7 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
                tc_initial=None, *, half_length=None, n_nodes=defaults.N_NODES, tol=defaults.TOL,
                max_iter=defaults.MAX_ITER, scheme="newton",
                paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
-               symmetry="kink", callback=None, length=None, lattice=None):
+               symmetry="kink", callback=None, length=None, lattice=None, start=None):
     r"""Time-periodic kink: two flat layers bouncing half a period apart.
 
     Two formulations, named in the result's ``formulation``:
@@ -452,6 +452,10 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate.
     lattice : tps_solver.Lattice, keyword-only
         For ``e = 0`` only: the planar Neumann lattice of the inelastic kink.
+    start : {"shooting", "anticontinuum"}, keyword-only
+        For ``e = 0`` only: where the contact pattern comes from -- the settled FDA and shooting
+        (default), or the TPS itself from the uncoupled nodes (no time stepping;
+        :func:`~tps_solver.solvers.tps.stick_discovery.discover_stick_kink`).
 
     Returns
     -------
@@ -491,7 +495,12 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
             ("continuation", continuation, True), ("tail_correction", tail_correction, True),
             ("symmetry", symmetry, "kink")))
         from tps_solver.solvers.tps.stick_kink import solve_stick_kink
+        if start is not None:
+            kw["start"] = start
         return solve_stick_kink(Gamma, M, lattice=lattice, callback=callback, **kw)
+    if start is not None:
+        raise ValueError("start applies to the e = 0 kink only ('shooting' or 'anticontinuum', "
+                         "see solve_stick_kink)")
     if lattice is not None:
         raise ValueError("lattice applies to the e = 0 kink only; for single-contact kinks on a lattice "
                          "use solve_lattice(lattice, ...)")

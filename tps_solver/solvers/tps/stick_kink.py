@@ -58,7 +58,7 @@ def _default_lattice(spacing, length):
 
 
 def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, fda_periods=10,
-                     n_basis=8, tol=1e-10, callback=None):
+                     n_basis=8, tol=1e-10, start="shooting", callback=None):
     r"""The e = 0 kink on a planar lattice, checked by the FDA (module docstring).
 
     Parameters
@@ -80,8 +80,17 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         Legendre terms of the reaction per stick segment of the TPS.
     tol : float
         Residual target of the TPS.
+    start : {"shooting", "anticontinuum"}
+        Where the contact pattern comes from: stages 1-2 above (default), or the TPS itself,
+        :func:`~tps_solver.solvers.tps.stick_discovery.discover_stick_kink` (continuation in the
+        coupling from the uncoupled nodes; no time stepping, no shooting; the bond-centred
+        kink with the front after node ``n_nodes // 2 - 1``).  The multipliers are then those of
+        the FDA period map at the TPS orbit (:func:`tps_solver.find_periodic_orbit` started on
+        it, which takes no Newton step when the orbit is accurate).  Slower on these lattices:
+        7 s for 6 nodes, 36 s for 10 (validation/stick_discovery.py).
     callback : callable, optional
-        ``callback(state)`` after every Newton step of the shooting and of the TPS.
+        ``callback(state)`` after every Newton step of the shooting and of the TPS (with
+        ``start="anticontinuum"``: after every coupling of the path).
 
     Returns
     -------
@@ -122,6 +131,10 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         raise ValueError("lattice must be a planar tps.Lattice with Neumann ends, e.g. "
                          "tps.Lattice.planar(n_nodes=41, length=40.0)")
     flat = _far_field(Gamma, M)
+    if start == "anticontinuum":
+        return _discovered(lattice, flat, max_iter, fda_periods, n_basis, tol, callback)
+    if start != "shooting":
+        raise ValueError(f"start must be 'shooting' or 'anticontinuum', got {start!r}")
     t_start = float(flat.t0 + 0.25 * flat.period)
     w0, z0 = kink_state(lattice, flat, t_start, width=2.0)
     return _pipeline(lattice, flat, w0, z0, t_start, "kink", periods, max_iter, fda_periods, n_basis, tol,
@@ -217,6 +230,34 @@ def _uniform(sol, n_samples=64, rel=1e-3):
     return bool(np.max(np.abs(Z[:, 0] - Z[:, -1])) <= rel * max(float(np.max(np.abs(Z))), 1e-300))
 
 
+def _discovered(lattice, flat, max_iter, fda_periods, n_basis, tol, callback):
+    """The kink found by the TPS itself, its multipliers from the period map at it, the FDA check."""
+    from tps_solver.solvers.tps.stick_discovery import discover_stick_kink
+
+    clock = time.perf_counter()
+    seconds = Bunch(settle=0.0)
+    sol = discover_stick_kink(lattice, flat.Gamma, flat.M, tol=tol, n_basis=n_basis, callback=callback)
+    seconds.tps = time.perf_counter() - clock
+    tick = time.perf_counter()
+    orbit, note = None, ""
+    if sol.converged:
+        # the section: the time (on a grid) at which every node is highest above the plate
+        ts = sol.period * np.arange(256) / 256
+        t_s = float(ts[int(np.argmax(np.min(sol.height(ts), axis=1)))])
+        w_s, z_s = sol.velocity([t_s])[0], np.maximum(sol.height([t_s])[0], 0.0)
+        orbit = find_periodic_orbit(lattice, Gamma=flat.Gamma, M=flat.M, e=0.0, guess=(w_s, z_s),
+                                    t_start=t_s, method="exact", max_iter=max_iter)
+        if not orbit.converged:
+            note = f"the period map at the TPS orbit did not converge ({orbit.message}); "
+    seconds.shooting = time.perf_counter() - tick
+    sol.orbit = orbit
+    sol.multipliers = orbit.multipliers if orbit is not None and orbit.converged else None
+    if sol.multipliers is None and sol.converged:
+        sol.converged = sol.success = False
+        sol.status = 2
+    return _checked(sol, lattice, "kink", fda_periods, (), seconds, note, clock)
+
+
 def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_periods, n_basis, tol, callback):
     clock = time.perf_counter()
     Gamma, M, T = flat.Gamma, flat.M, flat.period
@@ -267,12 +308,19 @@ def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_perio
     sol = solve_stick_lattice(lattice, Gamma, M, 0.0, pattern=pattern, n_basis=n_basis, tol=tol,
                               refresh=0, callback=callback)
     seconds.tps = time.perf_counter() - tick
-    tick = time.perf_counter()
     sol.orbit = orbit
     sol.multipliers = orbit.multipliers if orbit.converged else None
-    sol.spacing = float(lattice.spacing)
     sol.formulation = ("impact-and-stick TPS (solve_stick_lattice) on the contact pattern of a shooting "
                        "orbit (find_periodic_orbit after FDA settling)")
+    moved = (f"; nodes on the shifted phase: {core[0]} at the start, {core[-1]} after {periods} "
+             "settling periods" if len(core) > 1 else "")
+    return _checked(sol, lattice, what, fda_periods, core, seconds, note, clock, moved)
+
+
+def _checked(sol, lattice, what, fda_periods, core, seconds, note, clock, moved=""):
+    """The FDA check of a TPS orbit (stage 4), localisation, timings and the summary flags."""
+    tick = time.perf_counter()
+    sol.spacing = float(lattice.spacing)
     sol.localized = bool(sol.converged) and not _uniform(sol)
     sol.core_nodes = core
     if sol.converged:
@@ -288,8 +336,6 @@ def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_perio
                      f"{max(chk.contact_error, chk.liftoff_error):.2e}, state defect {defect:.2e} after "
                      f"{fda_periods} periods, tolerance {FDA_TOL:g}). ")
         if not sol.localized:
-            moved = (f"; nodes on the shifted phase: {core[0]} at the start, {core[-1]} after {periods} "
-                     "settling periods" if len(core) > 1 else "")
             note += (f"no {what} found: the orbit is uniform (the flat layer), the phase-shifted region "
                      f"did not survive{moved}. ")
     else:
