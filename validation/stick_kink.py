@@ -94,7 +94,9 @@ def main(argv=None):
             markdown_table(rows, [(c, c) for c in cols]), "",
             "Seconds per stage (one BLAS thread; `t_lattice_kink`: the period-map shooting reference alone):", "",
             markdown_table(rows, [(c, c) for c in tcols]), "",
-            "The TPS does **not** find the pattern itself: the time stepper (settling) and shooting do. "
+            "Here the pattern comes from the time stepper (settling) and shooting. The TPS finds it by itself "
+            "with `start='anticontinuum'` (continuation in the coupling with re-cut segments and an active set "
+            "of contact changes; section `stick_discovery`). "
             "A pattern-free alternative was measured and fails (`python -m validation.spacetime_discovery`): "
             "the whole period as one discrete complementarity problem on the heights (position-level "
             "impact law, e = 0, N = 512 levels per period), semismooth Newton with a sparse LU.", "",

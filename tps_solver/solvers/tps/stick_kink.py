@@ -18,9 +18,11 @@ apply).  Pipeline, each stage reported in the result:
 4. the FDA started on the TPS orbit for ``fda_periods`` periods: the largest distance of its
    events from the TPS's contact and lift-off times and the state defect after the run.
 
-The contact pattern is found by the time stepper and shooting (stages 1-2), not by the TPS
-itself: a pattern-free space-time complementarity Newton was tried and does not reach the
-kink (``validation/spacetime_discovery.py``).
+With ``start="anticontinuum"`` stages 1-2 are replaced by the TPS's own discovery of the
+pattern (:mod:`tps_solver.solvers.tps.stick_discovery`: continuation in the lattice coupling
+from uncoupled nodes; no time stepping, no shooting), and the period map at the found orbit
+gives the multipliers.  A pattern-free space-time complementarity Newton was tried too and
+does not reach the kink (``validation/spacetime_discovery.py``).
 
 The lattice spacing is the model's cut-off: pointwise impacts along a tilted landing front
 are ill-posed on the continuum (docs/design.md, hazard 3), so the orbit belongs to its
