@@ -541,6 +541,44 @@ class StickProblem(Problem):
         F.append(mean - T / G)
         return np.concatenate(F)
 
+    def linear_part(self, x, dlin, dv):
+        """The change of :meth:`equations` for changes ``dlin`` of ``[J, coef]`` and ``dv`` of the
+        request values, at the times of ``x``; shapes (n_linear, K), (E, K) -> (n_equations, K).
+
+        :meth:`equations` is affine in ``J``, ``coef`` and ``v`` at fixed times, so this is exact
+        (the linear columns of the Jacobian, all at once).
+        """
+        C = self.C
+        theta = x[:self.n_theta]
+        dJ, dc = dlin[:C], dlin[C:]
+        K = dlin.shape[1]
+        A = self.m.A
+        F = [dJ + self.restit[:, None] * dv[:C]]
+        dW = dv[C:2 * C]
+        zeta = [dW[idx[1:]] - dW[idx[:-1]] for idx in self.by_node if idx.size > 1]
+        F.append(np.concatenate(zeta) if zeta else np.zeros((0, K)))
+        a, b = self.seg_ends(theta)
+        ell = b - a
+        loc = []
+        for g in range(self.G):
+            if self.short[g]:
+                r = self.nbr_rows[g]
+                loc.append((dc[self.coef_off[g]] + A[self.seg_node[g], self.rq_node[r]] @ dv[r])[None, :])
+            else:
+                loc.append(dv[self.coll_rows[g]] / max(ell[g], _COLL_SCALE))
+        F.append(np.concatenate(loc) if loc else np.zeros((0, K)))
+        lift = np.zeros((self.S, K))
+        for s_, c in enumerate(self.stick):
+            if self.p.trigger[c] < 0:
+                g = self.last_seg[s_]
+                lift[s_] = dc[self.coef_off[g]:self.coef_off[g + 1]].sum(axis=0)
+        F.append(lift)
+        mean = np.zeros((self.p.n_nodes, K))
+        np.add.at(mean, self.p.node, dJ)
+        np.add.at(mean, self.seg_node, ell[:, None] * dc[self.coef_off[:-1]])
+        F.append(mean)
+        return np.concatenate(F)
+
     def residual(self, x):
         st = self.assemble(x)
         v = self.values(x, st)
@@ -592,10 +630,7 @@ class StickProblem(Problem):
         Jm = np.empty((F.size, n))
         dv_lin = np.concatenate([st["B_imp"], st["B_int"]], axis=1)
         base = self.equations(x, v)
-        for k in range(self.n_theta, n):
-            xk = x.copy()
-            xk[k] += 1.0
-            Jm[:, k] = self.equations(xk, v + dv_lin[:, k - self.n_theta]) - base
+        Jm[:, self.n_theta:] = self.linear_part(x, np.eye(n - self.n_theta), dv_lin)
         if not times:
             return Jm
         rt = st["rt"]
