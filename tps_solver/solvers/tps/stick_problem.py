@@ -509,21 +509,13 @@ class StickProblem(Problem):
         t, tau_s, J, coef = self.unpack(x)
         theta = x[:self.n_theta]
         S, T, G, C = self.S, self.T, self.Gamma, self.C
-        A = self.m.A
         vm, vW = v[:C], v[C:2 * C]
         F = [J + self.restit * vm]
         zeta = [vW[idx[1:]] - vW[idx[:-1]] for idx in self.by_node if idx.size > 1]
         F.append(np.concatenate(zeta) if zeta else np.zeros(0))
         a, b = self.seg_ends(theta)
         ell = b - a
-        loc = []
-        for g in range(self.G):
-            if self.short[g]:
-                r = self.nbr_rows[g]
-                loc.append(np.atleast_1d(coef[self.coef_off[g]] + A[self.seg_node[g], self.rq_node[r]] @ v[r]))
-            else:
-                loc.append(v[self.coll_rows[g]] / max(ell[g], _COLL_SCALE))
-        F.append(np.concatenate(loc) if loc else np.zeros(0))
+        F.append(self._local(coef, v, ell))
         lift = np.empty(S)
         for s, c in enumerate(self.stick):
             trig = self.p.trigger[c]
@@ -541,6 +533,19 @@ class StickProblem(Problem):
         F.append(mean - T / G)
         return np.concatenate(F)
 
+    def _local(self, coef, v, ell):
+        """The stick equations: collocated w = 0 (scaled), or a short segment's balance against its
+        neighbours; ``v`` of shape (E,) or (E, K) (then ``coef`` (n_coef, K))."""
+        A = self.m.A
+        loc = []
+        for g in range(self.G):
+            if self.short[g]:
+                r = self.nbr_rows[g]
+                loc.append((coef[self.coef_off[g]] + A[self.seg_node[g], self.rq_node[r]] @ v[r])[None])
+            else:
+                loc.append(v[self.coll_rows[g]] / max(ell[g], _COLL_SCALE))
+        return np.concatenate(loc) if loc else np.zeros((0,) + v.shape[1:])
+
     def linear_part(self, x, dlin, dv):
         """The change of :meth:`equations` for changes ``dlin`` of ``[J, coef]`` and ``dv`` of the
         request values, at the times of ``x``; shapes (n_linear, K), (E, K) -> (n_equations, K).
@@ -552,21 +557,13 @@ class StickProblem(Problem):
         theta = x[:self.n_theta]
         dJ, dc = dlin[:C], dlin[C:]
         K = dlin.shape[1]
-        A = self.m.A
         F = [dJ + self.restit[:, None] * dv[:C]]
         dW = dv[C:2 * C]
         zeta = [dW[idx[1:]] - dW[idx[:-1]] for idx in self.by_node if idx.size > 1]
         F.append(np.concatenate(zeta) if zeta else np.zeros((0, K)))
         a, b = self.seg_ends(theta)
         ell = b - a
-        loc = []
-        for g in range(self.G):
-            if self.short[g]:
-                r = self.nbr_rows[g]
-                loc.append((dc[self.coef_off[g]] + A[self.seg_node[g], self.rq_node[r]] @ dv[r])[None, :])
-            else:
-                loc.append(dv[self.coll_rows[g]] / max(ell[g], _COLL_SCALE))
-        F.append(np.concatenate(loc) if loc else np.zeros((0, K)))
+        F.append(self._local(dc, dv, ell))
         lift = np.zeros((self.S, K))
         for s_, c in enumerate(self.stick):
             if self.p.trigger[c] < 0:
