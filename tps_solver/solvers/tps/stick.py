@@ -249,16 +249,6 @@ def _newton(problem, x, tol, max_iter, callback=None):
     # the residual at the start is known: the engine does not evaluate it again
     out = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", chord=0.1, min_step=1.0 / 256,
                  first=first, callback=callback)
-    if out.status in (1, 2):
-        # where neighbours' events coincide (a far field of identical nodes: docs/design.md,
-        # hazard 13) the residual kinks and max|F| can grow along a Newton direction that still
-        # converges: the full-step Newton is tried from the same start, kept only if it converges
-        raw = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", line_search="none",
-                     first=first, callback=callback)
-        if raw.status in (0, 5):
-            raw.message += f" (full Newton steps after {out.nit} damped ones had stalled)"
-            raw.nit += out.nit
-            out = raw
     if out.status == 5:
         out.message += "; the fields hold the last accepted iterate"
     message = out.message

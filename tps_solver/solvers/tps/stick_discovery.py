@@ -63,16 +63,12 @@ from tps_solver.solvers.tps.stick import solve_pattern
 from tps_solver.solvers.tps.stick_pattern import make_pattern
 from tps_solver.solvers.tps.stick_problem import StickProblem, flat_stick_orbit
 
-__all__ = ["anticontinuum_pattern", "discover_stick_kink", "prolong_kink_pattern", "refine_stick_kink",
-           "sequence_stick_kink",
-           "COARSE_MARGINS", "PATH_TOL", "SEQUENCE_SPACING"]
+__all__ = ["anticontinuum_pattern", "discover_stick_kink", "COARSE_MARGINS", "PATH_TOL"]
 
 #: Cut margins (impacts, lift-offs) along the continuation (module docstring).
 COARSE_MARGINS = (1e-7, 1e-3)
 #: Residual tolerance of the solves along the path (the final polish uses ``tol``).
 PATH_TOL = 1e-8
-#: Largest spacing of the grid sequence's levels (:func:`sequence_stick_kink`).
-SEQUENCE_SPACING = 4.0
 
 _N_QUAD = 16
 _REACTION_TOL = 1e-9         # a reaction below -this is tensile
@@ -190,25 +186,6 @@ def _recut_solve(modal, pattern, ctx, tol, margins, rounds=6, inner=4):
     return sol, rounds, nit
 
 
-def _settle(modal, pattern, ctx, info, rounds=6, changes_max=6):
-    """Active-set rounds at one coupling: re-cut solves, then the pattern changed where a check
-    fails, until a solution passes (``ok``); returns (solution, ok, list of changes made).
-    Accumulates ``info.rounds`` and ``info.newton_steps``."""
-    made = []
-    for _ in range(changes_max):
-        sol, r, nit = _recut_solve(modal, pattern, ctx, PATH_TOL, COARSE_MARGINS, rounds=rounds, inner=4)
-        info.rounds += r
-        info.newton_steps += nit
-        if sol.status == 5 or not sol.converged:
-            return sol, False, made
-        new, changes = _diagnose(sol)
-        if new is None:
-            return sol, True, made
-        made += changes
-        pattern = new
-    return sol, False, made
-
-
 # ------------------------------------------------------------------ the active set
 def _reaction(problem, coef, g, a, b, ts):
     xi = 2 * (ts - a) / (b - a) - 1
@@ -287,10 +264,6 @@ def _diagnose(sol):
             kind[c], tau[c], trig[c], shift[c] = "stick", t[c] + _OPEN, -1, 0
             changes.append(f"node {int(p.node[c])}: the touch-and-go at t = {t[c]:.6f} becomes a stick "
                            f"(free acceleration {acc:.2e} after it)")
-        elif p.kind[c] == "stick":
-            kind[c], tau[c], trig[c], shift[c] = "bounce", np.nan, -1, 0
-            changes.append(f"node {int(p.node[c])}: the stick of zero length at t = {t[c]:.6f} is a "
-                           f"touch-and-go (free acceleration {acc:.2e} after it)")
     if not changes:
         return None, changes
     return make_pattern(p.node, kind, t, J, tau, trig, shift, p.n_nodes, T), changes
@@ -337,7 +310,7 @@ def _triggered(p, pairs):
 
 # ------------------------------------------------------------------ the front end
 def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0.01, step=0.16,
-                        min_step=2e-3, tol=1e-10, max_steps=300, n_basis=8, start=None, callback=None):
+                        min_step=2e-3, tol=1e-10, max_steps=300, n_basis=8, callback=None):
     r"""The e = 0 kink found by the TPS itself: continuation in the coupling from the anti-continuum limit.
 
     See the module docstring for the method.  No time stepping and no shooting take part.
@@ -354,8 +327,7 @@ def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0
         Last node of the unshifted side at the start; default ``n_nodes // 2 - 1`` (the front
         between the two middle nodes of an even lattice: the bond-centred kink).
     coupling_start : float
-        :math:`\nu_0` in (0, 1): the path starts at spacing ``dx / sqrt(nu_0)``; 1 (with
-        ``start``) solves at coupling 1 directly: the active set repairs ``start``.
+        :math:`\nu_0` in (0, 1): the path starts at spacing ``dx / sqrt(nu_0)``.
     step : float
         Largest step in :math:`\ln\nu`.
     min_step : float
@@ -366,11 +338,6 @@ def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0
         Bound on the continuation steps (accepted and failed).
     n_basis : int
         Legendre terms of the reaction per stick segment.
-    start : StickPattern, optional
-        The pattern at ``coupling_start`` instead of the anti-continuum one (``front`` is then
-        ignored): the grid sequencing of :func:`sequence_stick_kink` starts each lattice from
-        the kink of the lattice of twice its spacing, prolonged (:func:`prolong_kink_pattern`),
-        at coupling 1/4.
     callback : callable, optional
         ``callback(state)`` after every coupling solved: a
         :class:`~tps_solver.core.progress.ProgressState` of stage ``"discovery"`` with
@@ -412,15 +379,10 @@ def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0
     n = lattice.n_nodes
     if front is None:
         front = n // 2 - 1
-    if start is None:
-        pattern = anticontinuum_pattern(n, front, Gamma, M)
-    else:
-        pattern = start
-        if pattern.n_nodes != n:
-            raise ValueError(f"start must be a pattern on the lattice's {n} nodes, got {pattern.n_nodes}")
+    pattern = anticontinuum_pattern(n, front, Gamma, M)
     T = pattern.period
-    if not (0.0 < float(coupling_start) < 1.0 or (start is not None and float(coupling_start) == 1.0)):
-        raise ValueError(f"coupling_start must be in (0, 1) (or 1 with a start pattern), got {coupling_start!r}")
+    if not (0.0 < float(coupling_start) < 1.0):
+        raise ValueError(f"coupling_start must be in (0, 1), got {coupling_start!r}")
     step = check_positive(step, "step")
     min_step = check_positive(min_step, "min_step")
     tol = check_positive(tol, "tol")
@@ -432,17 +394,28 @@ def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0
     h = step
     tried = set()
     prev = (None, None)
-    info = Bunch(couplings=[], steps=0, failed=0, rounds=0, newton_steps=0, changes=[],
-                 start_coupling=float(coupling_start))
+    info = Bunch(couplings=[], steps=0, failed=0, rounds=0, newton_steps=0, changes=[])
     sol = None
     while info.steps < max_steps:
         info.steps += 1
         modal = ModalBasis(lattice, coupling=nu, period=T)
-        # the start is furthest from its solution: more rounds of re-cutting
-        sol, ok, changes = _settle(modal, pattern, ctx, info, rounds=12 if nu_ok is None else 6)
-        info.changes += [(nu, text) for text in changes]
-        if sol.status == 5:
-            return _finish(sol, lattice, info, nu_ok, start_clock, interrupted=True)
+        ok = False
+        for _ in range(6):                         # active-set rounds at this coupling
+            first = nu_ok is None               # the start is furthest from its solution
+            sol, rounds, nit = _recut_solve(modal, pattern, ctx, PATH_TOL, COARSE_MARGINS,
+                                            rounds=12 if first else 6, inner=4)
+            info.rounds += rounds
+            info.newton_steps += nit
+            if sol.status == 5:
+                return _finish(sol, lattice, info, nu_ok, start_clock, interrupted=True)
+            if not sol.converged:
+                break
+            new, changes = _diagnose(sol)
+            if new is None:
+                ok = True
+                break
+            info.changes += [(nu, text) for text in changes]
+            pattern = new
         if ok:
             if nu_ok is not None and nu > nu_ok:
                 prev = (pat_ok, nu_ok)
@@ -451,8 +424,7 @@ def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0
             info.couplings.append(nu)
             if callback is not None:
                 callback(progress_state("discovery", len(info.couplings),
-                                        fraction=(math.log(nu) - log0) / -log0 if log0 < 0 else 1.0,
-                                        residual=sol.residual,
+                                        fraction=(math.log(nu) - log0) / -log0, residual=sol.residual,
                                         coupling=nu))
             if nu >= 1.0:
                 break
@@ -516,357 +488,9 @@ def _finish(sol, lattice, info, nu_ok, start_clock, interrupted=False):
         sol.converged = sol.success = False
         if sol.status == 0:
             sol.status = 2
-        if info.start_coupling == 1.0:
-            sol.message = (f"no orbit found from the start pattern at coupling 1 (pattern changes tried: "
-                           f"{len(info.changes)}); try a start at a lower coupling_start. " + sol.message)
-        else:
-            sol.message = (f"the continuation in the coupling stopped at nu = {info.reached:.4g} (last step "
-                           f"failed after {info.steps} steps, {info.failed} failed; pattern changes tried: "
-                           f"{len(info.changes)}); try a smaller step or a larger coupling_start. "
-                           + sol.message)
+        sol.message = (f"the continuation in the coupling stopped at nu = {info.reached:.4g} (last step "
+                       f"failed after {info.steps} steps, {info.failed} failed; pattern changes tried: "
+                       f"{len(info.changes)}); try a smaller step or a larger coupling_start. "
+                       + sol.message)
     sol.checks.all_pass = bool(sol.converged and sol.checks.all_pass)
     return sol
-
-
-# ------------------------------------------------------------------ grid sequencing
-def _node_contacts(p, j):
-    """Node j's contacts in the order of their phase t mod T: (indices, phases)."""
-    m = np.nonzero(p.node == j)[0]
-    ph = np.mod(p.t[m], p.period)
-    order = np.argsort(ph)
-    return m[order], ph[order]
-
-
-def _sides(p):
-    """0 for nodes on node 0's phase, 1 for nodes half a period later (per node, by the contact times)."""
-    T = p.period
-    wrap = lambda d: np.abs((d + T / 2) % T - T / 2)         # noqa: E731
-    ref = np.mod(p.t[p.node == 0], T)
-    side = np.zeros(p.n_nodes, dtype=int)
-    for j in range(p.n_nodes):
-        tj = np.mod(p.t[p.node == j], T)
-        cost = [np.sum(np.min(wrap(tj[:, None] - d - ref[None, :]), axis=1)) for d in (0.0, T / 2)]
-        side[j] = int(cost[1] < cost[0])
-    return side
-
-
-def prolong_kink_pattern(pattern, nodes, lattice, Gamma=None):
-    r"""A kink's contact pattern carried to another lattice: the start of a finer (or coarser) solve.
-
-    The front (the bond where the nodes' phase jumps by half a period) is placed at the bond of
-    ``lattice`` nearest to the same coordinate; every new node takes the contacts of the old
-    nodes on its side of the front at the same distance from it: times, impulses and stick
-    lengths linearly interpolated between the two nearest old nodes where their contact
-    sequences agree, else those of the nearest one (and of the outermost one beyond the old
-    lattice).  A lift-off triggered by a neighbour's landing stays triggered by the landing of
-    the new node's neighbour on the same side, the contact nearest in time; where that would
-    make an invalid pattern it becomes smooth.
-
-    Parameters
-    ----------
-    pattern : StickPattern
-        A kink's pattern (one front), e.g. ``sol.pattern`` of :func:`discover_stick_kink`.
-    nodes : array_like of float, shape (n_nodes,)
-        The coordinates of the pattern's nodes.
-    lattice : tps_solver.Lattice
-        The new planar lattice; its nodes must reach at least one node beyond the front on
-        each side.
-    Gamma : float, optional
-        The plate acceleration of ``pattern``.  Given, the nodes beyond the old lattice take
-        the flat orbit (:func:`~tps_solver.solvers.tps.stick_problem.flat_stick_orbit`) plus
-        the outermost old node's deviation from it, decaying geometrically at the rate of the
-        last two old nodes (so that the far field's nodes are not identical: their coincident
-        events make the residual kink, docs/design.md hazard 13); else they copy the outermost
-        old node.
-
-    Returns
-    -------
-    StickPattern
-        On ``lattice.n_nodes`` nodes, with the period of ``pattern``.
-
-    Raises
-    ------
-    ValueError
-        If the pattern has no front or more than one, or ``lattice`` has no node on a side.
-
-    Examples
-    --------
-    >>> import tps_solver as tps
-    >>> coarse = tps.Lattice.planar(n_nodes=6, length=20.0)
-    >>> p = anticontinuum_pattern(6, 2, 4.1)
-    >>> fine = prolong_kink_pattern(p, coarse.nodes, tps.Lattice.planar(n_nodes=12, length=22.0))
-    >>> fine.n_nodes, int(np.sum(_sides(fine))), bool(np.allclose(fine.t[fine.node == 11], p.t[p.node == 5]))
-    (12, 6, True)
-    """
-    nodes = np.asarray(nodes, dtype=float)
-    if nodes.shape != (pattern.n_nodes,):
-        raise ValueError(f"nodes must have shape ({pattern.n_nodes},) (one per pattern node), got {nodes.shape}")
-    if not isinstance(lattice, Lattice) or lattice.geometry != "planar":
-        raise ValueError("lattice must be a planar tps.Lattice, e.g. tps.Lattice.planar(n_nodes=40, length=39.0)")
-    T = pattern.period
-    flat = None if Gamma is None else flat_stick_orbit(Gamma, int(round(T / (2 * math.pi))))
-    side = _sides(pattern)
-    jumps = np.nonzero(np.diff(side))[0]
-    if jumps.size != 1:
-        raise ValueError(f"pattern must hold one kink front (one phase jump between neighbours), found "
-                         f"{jumps.size}")
-    f = int(jumps[0])
-    xf = 0.5 * (nodes[f] + nodes[f + 1])
-    xn = np.asarray(lattice.nodes, dtype=float)
-    mids = 0.5 * (xn[1:] + xn[:-1])
-    g = int(np.argmin(np.abs(mids - xf)))
-    y_old, y_new = nodes - xf, xn - mids[g]
-    node, kind, t, J, ell, src = [], [], [], [], [], []
-    for j in range(xn.size):
-        left = j <= g
-        cand = np.arange(f + 1) if left else np.arange(f + 1, nodes.size)
-        dist = np.abs(y_old[cand] - y_new[j])
-        near = cand[np.argsort(dist)[:2]]
-        i0 = int(near[0])
-        c0, ph0 = _node_contacts(pattern, i0)
-        tj, Jj, lj = ph0.copy(), pattern.J[c0].copy(), (pattern.tau[c0] - pattern.t[c0]).copy()
-        if near.size == 2:
-            i1 = int(near[1])
-            c1, ph1 = _node_contacts(pattern, i1)
-            y0, y1 = y_old[i0], y_old[i1]
-            w = (y_new[j] - y0) / (y1 - y0)
-            if 0.0 <= w <= 1.0 and np.array_equal(pattern.kind[c0], pattern.kind[c1]):
-                d = np.mod(ph1 - ph0 + T / 2, T) - T / 2
-                tj = ph0 + w * d
-                Jj = (1 - w) * Jj + w * pattern.J[c1]
-                l1 = pattern.tau[c1] - pattern.t[c1]
-                lj = np.where(np.isnan(lj), np.nan, (1 - w) * lj + w * l1)
-        if flat is not None and abs(y_new[j]) > np.max(np.abs(y_old[cand])) + 1e-9:
-            tj, Jj, lj = _far_field(pattern, flat, cand, y_old, abs(y_new[j]), (tj, Jj, lj))
-        for c, tc, Jc, lc in zip(c0, tj, Jj, lj):
-            node.append(j)
-            kind.append(pattern.kind[c])
-            t.append(tc)
-            J.append(Jc)
-            ell.append(lc)
-            src.append(int(c))
-    node, t, J, ell, src = np.array(node), np.array(t), np.array(J), np.array(ell), np.array(src)
-    kind = np.array(kind)
-    tau = np.where(kind == "stick", t + ell, np.nan)
-    C = node.size
-    trig, shift = -np.ones(C, int), np.zeros(C, int)
-    for c in range(C):
-        k_old = pattern.trigger[src[c]]
-        if kind[c] != "stick" or k_old < 0:
-            continue
-        step = int(np.sign(pattern.node[k_old] - pattern.node[src[c]]))
-        jn = node[c] + step
-        if not 0 <= jn < xn.size:
-            continue
-        cands = np.nonzero(node == jn)[0]
-        m = np.round((tau[c] - t[cands]) / T)
-        k = int(cands[np.argmin(np.abs(t[cands] + m * T - tau[c]))])
-        mk = int(round((tau[c] - t[k]) / T))
-        new_tau = t[k] + mk * T
-        others = np.nonzero((node == node[c]) & (np.arange(C) != c))[0]
-        if new_tau > t[c] + _SHUT and np.all(np.mod(t[others] - t[c], T) > new_tau - t[c]):
-            trig[c], shift[c], tau[c] = k, mk, new_tau
-    try:
-        return make_pattern(node, kind, t, J, tau, trig, shift, xn.size, T)
-    except ValueError:
-        return make_pattern(node, kind, t, J, np.where(kind == "stick", t + ell, np.nan), -np.ones(C, int),
-                            np.zeros(C, int), xn.size, T)
-
-
-def _far_field(pattern, flat, cand, y_old, dist, fallback):
-    """Contacts of a node at distance ``dist`` from the front beyond the old nodes ``cand``: the flat
-    orbit plus a geometrically decaying deviation; ``fallback`` where the old nodes do not match it."""
-    T = pattern.period
-    order = np.argsort(np.abs(y_old[cand]))
-    end, prev = int(cand[order[-1]]), int(cand[order[-2]]) if cand.size > 1 else None
-    if prev is None:
-        return fallback
-    wrap = lambda d: np.mod(d + T / 2, T) - T / 2           # noqa: E731
-    ph_end = np.mod(pattern.t[pattern.node == end], T)
-    cost = [np.sum(np.min(np.abs(wrap(ph_end[:, None] - np.mod(flat.t + sh, T)[None, :])), axis=1))
-            for sh in (0.0, T / 2)]
-    ph_f = np.mod(flat.t + (T / 2 if cost[1] < cost[0] else 0.0), T)
-    ell_f = flat.tau - flat.t
-    devs = []
-    for i in (end, prev):
-        c, ph = _node_contacts(pattern, i)
-        if c.size != flat.t.size:
-            return fallback
-        k = np.argmin(np.abs(np.mod(ph[:, None] - ph_f[None, :] + T / 2, T) - T / 2), axis=1)
-        if np.unique(k).size != k.size or not np.array_equal(pattern.kind[c], flat.kind[k]):
-            return fallback
-        ell = pattern.tau[c] - pattern.t[c]
-        devs.append((k, np.mod(ph - ph_f[k] + T / 2, T) - T / 2, pattern.J[c] + flat.w_minus[k],
-                     np.where(np.isnan(ell), 0.0, ell - np.where(np.isnan(ell_f[k]), 0.0, ell_f[k]))))
-    (k, *d_end), (_, *d_prev) = devs
-    m = (dist - abs(y_old[end])) / abs(y_old[end] - y_old[prev])
-    out = []
-    for de, dp in zip(d_end, d_prev):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rho = np.where((de * dp > 0) & (np.abs(dp) > np.abs(de)), de / dp, 0.0)
-        out.append(de * np.minimum(rho, 0.9) ** m)
-    t = ph_f[k] + out[0]
-    ell = np.where(flat.kind[k] == "stick", ell_f[k] + out[2], np.nan)
-    return t, -flat.w_minus[k] + out[1], ell
-
-
-def refine_stick_kink(coarse, lattice, *, step=0.3, tol=1e-10, n_basis=None, max_steps=100, callback=None):
-    r"""The e = 0 kink on a finer lattice from a kink solved on a coarser one (grid sequencing).
-
-    A lattice of spacing dx at coupling :math:`\nu` is the lattice of spacing
-    :math:`dx/\sqrt\nu` (module docstring), so ``lattice`` at coupling
-    :math:`(dx/dx_c)^2` has the coarse kink's spacing :math:`dx_c`: the coarse pattern carried
-    over node for node (:func:`prolong_kink_pattern`; the nodes beyond the coarse lattice take
-    its far field) is its start, and :func:`discover_stick_kink` continues it to coupling 1.
-    No time stepping and no shooting.
-
-    Parameters
-    ----------
-    coarse : StickSolution
-        A converged e = 0 kink with ``lattice`` (of :func:`discover_stick_kink` or of this
-        function).
-    lattice : tps_solver.Lattice
-        Planar lattice with Neumann ends, spacing below the coarse one's.
-    step : float
-        Largest continuation step in :math:`\ln\nu`.
-    tol : float
-        Residual of the final polish.
-    n_basis : int, optional
-        Legendre terms per stick segment; default that of ``coarse``.
-    max_steps : int
-        Bound on the continuation steps.
-    callback : callable, optional
-        As for :func:`discover_stick_kink`.
-
-    Returns
-    -------
-    StickSolution
-        As :func:`discover_stick_kink`, with ``discovery.coarse_spacing`` and the
-        ``formulation`` naming the sequencing.
-
-    Raises
-    ------
-    ValueError
-        If ``coarse`` is not a converged e = 0 kink with a lattice, or ``lattice`` is not a
-        planar Neumann lattice finer than it.
-
-    Examples
-    --------
-    The six-node kink at spacing 4 carried to twelve nodes at spacing 2 (about 20 s):
-
-    >>> import tps_solver as tps
-    >>> sol = discover_stick_kink(tps.Lattice.planar(n_nodes=6, length=20.0), 4.1, coupling_start=0.02,
-    ...                           step=0.4)
-    >>> fine = refine_stick_kink(sol, tps.Lattice.planar(n_nodes=12, length=22.0))
-    >>> fine.converged, fine.checks.all_pass, fine.spacing
-    (True, True, 2.0)
-    """
-    if not getattr(coarse, "converged", False) or getattr(coarse, "lattice", None) is None:
-        raise ValueError("coarse must be a converged stick kink with its lattice (converged=True), e.g. of "
-                         "discover_stick_kink")
-    if float(coarse.e) != 0.0:
-        raise ValueError(f"refine_stick_kink applies to the e = 0 kink, got coarse.e = {coarse.e}")
-    if not isinstance(lattice, Lattice) or lattice.geometry != "planar" or lattice.boundary != "neumann":
-        raise ValueError("lattice must be a planar tps.Lattice with Neumann ends, e.g. "
-                         "tps.Lattice.planar(n_nodes=40, length=39.0)")
-    ratio = float(coarse.lattice.spacing) / float(lattice.spacing)
-    if not ratio > 1.0 + 1e-12:
-        raise ValueError(f"lattice must be finer than the coarse one (spacing < {coarse.lattice.spacing:g}), "
-                         f"got spacing {lattice.spacing:g}")
-    n_basis = coarse.n_basis if n_basis is None else n_basis
-    start = prolong_kink_pattern(coarse.pattern, np.asarray(coarse.lattice.nodes) / ratio, lattice,
-                                 Gamma=float(coarse.Gamma))
-    sol = discover_stick_kink(lattice, float(coarse.Gamma), int(coarse.M), coupling_start=1.0 / ratio ** 2,
-                              step=step, tol=tol, max_steps=max_steps, n_basis=n_basis, start=start,
-                              callback=callback)
-    sol.discovery.coarse_spacing = float(coarse.lattice.spacing)
-    sol.formulation = (f"impact-and-stick TPS, pattern carried over from the kink at spacing "
-                       f"{float(coarse.lattice.spacing):g} and continued in the coupling (refine_stick_kink)")
-    return sol
-
-
-def sequence_stick_kink(lattice, Gamma=4.1, M=2, *, coarsest_spacing=SEQUENCE_SPACING, step=0.3, tol=1e-10, n_basis=8,
-                        max_steps=300, callback=None):
-    r"""The e = 0 kink by discovery on a coarse lattice and grid sequencing up to ``lattice``.
-
-    The levels halve the node count and double the spacing (the same length, an even node
-    count: the bond-centred front) while the spacing stays at most ``coarsest_spacing``;
-    :func:`discover_stick_kink` finds the kink on the coarsest level from the anti-continuum
-    limit, :func:`refine_stick_kink` carries it to each finer one.  Every level's
-    continuation runs on the lattice with the fewest nodes that resolve it, which is where
-    the saving is: on 20 nodes at dx = 2, 120 s from the 10-node kink at dx = 4 (found in
-    48 s) against 375 s of discovery on the 20 nodes from the start.
-
-    Parameters
-    ----------
-    lattice : tps_solver.Lattice
-        Planar lattice with Neumann ends (the finest level).
-    Gamma, M
-        As for :func:`discover_stick_kink`.
-    coarsest_spacing : float
-        Largest spacing of a level.
-    step, tol, n_basis, max_steps
-        As for :func:`discover_stick_kink` (``max_steps`` per level).
-    callback : callable, optional
-        Passed to every level's continuation.
-
-    Returns
-    -------
-    StickSolution
-        The finest level's (or, if a level fails, that level's, with ``converged=False`` and
-        the message naming it), with ``sequence`` (:class:`~tps_solver.core.bunch.Bunch`:
-        ``n_nodes``, ``spacing``, ``seconds``, ``newton_steps`` and ``converged`` per level,
-        coarsest first, and ``seconds`` in all).
-
-    Examples
-    --------
-    >>> import tps_solver as tps
-    >>> lat = tps.Lattice.planar(n_nodes=12, length=22.0)
-    >>> [lv.n_nodes for lv in _levels(lat, 4.0)]
-    [6, 12]
-    """
-    start_clock = time.perf_counter()
-    if not isinstance(lattice, Lattice) or lattice.geometry != "planar" or lattice.boundary != "neumann":
-        raise ValueError("lattice must be a planar tps.Lattice with Neumann ends, e.g. "
-                         "tps.Lattice.planar(n_nodes=40, length=39.0)")
-    coarsest_spacing = check_positive(coarsest_spacing, "coarsest_spacing")
-    levels = _levels(lattice, coarsest_spacing)
-    info = Bunch(n_nodes=[], spacing=[], seconds=[], newton_steps=[], converged=[])
-    sol = None
-    for k, lat in enumerate(levels):
-        t0 = time.perf_counter()
-        if sol is None:
-            sol = discover_stick_kink(lat, Gamma, M, step=step, tol=tol, n_basis=n_basis, max_steps=max_steps,
-                                      callback=callback)
-        else:
-            sol = refine_stick_kink(sol, lat, step=step, tol=tol, n_basis=n_basis, max_steps=max_steps,
-                                    callback=callback)
-        info.n_nodes.append(lat.n_nodes)
-        info.spacing.append(float(lat.spacing))
-        info.seconds.append(time.perf_counter() - t0)
-        info.newton_steps.append(int(sol.discovery.newton_steps))
-        info.converged.append(bool(sol.converged))
-        if not sol.converged:
-            if k < len(levels) - 1:
-                sol.message = (f"grid sequencing stopped at level {k + 1} of {len(levels)} ({lat.n_nodes} nodes, "
-                               f"spacing {lat.spacing:g}; the fields are that level's); " + sol.message)
-            break
-    info.seconds_total = time.perf_counter() - start_clock
-    sol.sequence = info
-    if sol.converged:
-        sol.formulation = (f"impact-and-stick TPS, pattern discovered on {levels[0].n_nodes} nodes at spacing "
-                           f"{levels[0].spacing:g} and carried over by grid sequencing (sequence_stick_kink)")
-    return sol
-
-
-def _levels(lattice, coarsest_spacing):
-    """The lattices of the sequence, coarsest first."""
-    out = [lattice]
-    n, dx = lattice.n_nodes, float(lattice.spacing)
-    while 2 * dx <= coarsest_spacing * (1 + 1e-9):
-        m = 2 * max(2, round(n / 4))
-        if m >= n:
-            break
-        n, dx = m, 2 * dx
-        out.append(Lattice.planar(n_nodes=n, length=(n - 1) * dx))
-    return out[::-1]

@@ -20,8 +20,7 @@ apply).  Pipeline, each stage reported in the result:
 
 With ``start="anticontinuum"`` stages 1-2 are replaced by the TPS's own discovery of the
 pattern (:mod:`tps_solver.solvers.tps.stick_discovery`: continuation in the lattice coupling
-from uncoupled nodes, on lattices finer than spacing 2 by grid sequencing from a lattice of
-spacing at most 4; no time stepping, no shooting), and the period map at the found orbit
+from uncoupled nodes; no time stepping, no shooting), and the period map at the found orbit
 gives the multipliers.  A pattern-free space-time complementarity Newton was tried too and
 does not reach the kink (``validation/spacetime_discovery.py``).
 
@@ -235,14 +234,11 @@ def _uniform(sol, n_samples=64, rel=1e-3):
 
 def _discovered(lattice, flat, max_iter, fda_periods, n_basis, tol, callback):
     """The kink found by the TPS itself, its multipliers from the period map at it, the FDA check."""
-    from tps_solver.solvers.tps.stick_discovery import SEQUENCE_SPACING, discover_stick_kink, sequence_stick_kink
+    from tps_solver.solvers.tps.stick_discovery import discover_stick_kink
 
     clock = time.perf_counter()
     seconds = Bunch(settle=0.0)
-    if 2 * lattice.spacing <= SEQUENCE_SPACING:      # a coarser lattice resolves the start: grid sequencing
-        sol = sequence_stick_kink(lattice, flat.Gamma, flat.M, tol=tol, n_basis=n_basis, callback=callback)
-    else:
-        sol = discover_stick_kink(lattice, flat.Gamma, flat.M, tol=tol, n_basis=n_basis, callback=callback)
+    sol = discover_stick_kink(lattice, flat.Gamma, flat.M, tol=tol, n_basis=n_basis, callback=callback)
     seconds.tps = time.perf_counter() - clock
     tick = time.perf_counter()
     orbit, note = None, ""
