@@ -60,10 +60,11 @@ import numpy as np
 from scipy.linalg import eigh
 from scipy.optimize import brentq
 
-from tps_solver.core.checks import check_int, check_positive
+from tps_solver.core.checks import check_choice, check_int, check_positive
 from tps_solver.model.flight import phi1, phi2
 from tps_solver.solvers.fda.base import Integrator, Step
 from tps_solver.solvers.fda.events import event_sets
+from tps_solver.solvers.fda.runs import RunCache, RunModes
 
 __all__ = ["candidate_group", "forced_response", "Modes", "Segment", "ExactPropagator"]
 
@@ -241,13 +242,20 @@ class Segment:
         self._forcing = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s) for m in (1, 2, 3)}
         self._abs_a = np.abs(self.a)
 
-    def coefficients(self, tau):
-        """Modal coefficients (velocity, displacement) at local time ``tau``."""
+    def coefficients(self, tau, sl=None):
+        """Modal coefficients (velocity, displacement) at local time ``tau`` (of the modes ``sl``, a slice)."""
         lam = self.modes.lam
+        a = self.a
+        if sl is not None:
+            lam, a = lam[sl], a[sl]
         z = lam * tau
         em1 = np.expm1(z)
-        cw = (em1 + 1.0) * self.a
-        cz = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0) * self.a
+        cw = (em1 + 1.0) * a
+        cz = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0) * a
+        if sl is not None:             # run modes: unforced modes have s = 0 exactly
+            s = self.modes.s[sl]
+            W, Z = forced_response(lam, self.t_c, tau, self.Gamma)
+            return cw + s * W, cz + s * Z
         act = self.modes.forced
         W, Z = forced_response(lam[act], self.t_c, tau, self.Gamma)
         s = self.modes.s[act]
@@ -263,8 +271,14 @@ class Segment:
 
     def node_height(self, j, tau):
         """Height of free node number ``j`` (row of ``V``) at local time ``tau``."""
+        md = self.modes
+        if isinstance(md, RunModes):          # only the run holding node j
+            r = md.run_index(j)
+            o = md.offsets
+            _, cz = self.coefficients(tau, slice(o[r], o[r + 1]))
+            return self.zeta0[j] + md.runs[r].row(j - o[r]) @ cz
         _, cz = self.coefficients(tau)
-        return self.zeta0[j] + self.modes.V[j] @ cz
+        return self.zeta0[j] + md.V[j] @ cz
 
     def bounds12(self, tau):
         """``(D_1, D_2)`` in one matrix product (see :meth:`derivative_bound`)."""
@@ -344,6 +358,11 @@ class ExactPropagator(Integrator):
         Bound on search steps between two events (raises ``RuntimeError``).
     cache_size : int
         Number of free-set decompositions kept.
+    modes : {"runs", "free_set"}
+        ``"runs"`` (default): the free set decomposed run by run (:mod:`.runs`: closed-form
+        modes on uniform planar lattices, O(n log n) per event); ``"free_set"``: one dense
+        eigendecomposition of the whole free set per new free set (:class:`Modes`, O(n^3)),
+        the reference.
 
     Examples
     --------
@@ -360,7 +379,7 @@ class ExactPropagator(Integrator):
     """
 
     name = "exact"
-    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64}
+    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64, "modes": "runs"}
 
     def __init__(self, lattice, Gamma, e, **options):
         super().__init__(lattice, Gamma, e, **options)
@@ -368,17 +387,28 @@ class ExactPropagator(Integrator):
         self.max_steps = check_int(self.options["max_steps"], "max_steps", minimum=1)
         self._cache = OrderedDict()
         self._cache_size = check_int(self.options["cache_size"], "cache_size", minimum=1)
-        self.n_decompositions = 0
+        self._runs = None
+        if check_choice(self.options["modes"], "modes", ("runs", "free_set")) == "runs":
+            self._runs = RunCache(lattice, Modes, size=4 * self._cache_size)
+        self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
 
+    @property
+    def n_decompositions(self):
+        """Dense eigendecompositions computed (free sets, or runs without closed form)."""
+        return self._n_free_set + (self._runs.n_decompositions if self._runs is not None else 0)
+
     def modes(self, free):
-        """Cached :class:`Modes` of the free set ``free`` (bool mask)."""
+        """Cached :class:`Modes` (or :class:`~.runs.RunModes`) of the free set ``free`` (bool mask)."""
         key = np.packbits(free).tobytes()
         m = self._cache.get(key)
         if m is None:
-            m = Modes(self.lattice, free)
-            self.n_decompositions += 1
+            if self._runs is None:
+                m = Modes(self.lattice, free)
+                self._n_free_set += 1
+            else:
+                m = RunModes(self.lattice, free, self._runs.run, self._runs.tri)
             self._cache[key] = m
             if len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
@@ -508,6 +538,11 @@ class ExactPropagator(Integrator):
             return seg.node_height(j, tau)
         wF, _ = seg.state(tau)
         g = math.sin(seg.t_c + tau) - 1.0 / self.Gamma
+        if isinstance(md, RunModes):
+            node = md.stuck[j - nf]
+            u = np.zeros(self.lattice.n_nodes)
+            u[md.index] = wF
+            return -(g + float(md.L_SF.tri.apply(u)[node]))
         return -(g + md.L_SF[j - nf] @ wF)
 
     def _all_values(self, seg, md, tau):
