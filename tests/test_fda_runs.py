@@ -9,6 +9,7 @@ import pytest
 from scipy.linalg import eigvalsh
 
 import tps_solver as tps
+from tps_solver.core import jit
 from tps_solver.solvers.fda.exact import Modes, Segment
 from tps_solver.solvers.fda.runs import ClosedRun, RunCache, RunModes, Tridiagonal, free_runs
 from tps_solver.solvers.fda.states import flat_state, kink_state
@@ -157,7 +158,7 @@ def test_pinned_kink_same_events():
     t0 = fl.t0 + 1.0
     w, z = kink_state(lat, fl, t0, width=2.0)
     a, b = _both(lat, 2.5, 0.45, w, z, t0, t0 + fl.period)
-    _same_events(a, b, 1e-11)
+    _same_events(a, b, 1e-11, height=float(z.max()))        # ends in chatter near node 3
 
 
 def test_chatter_same_events():
@@ -187,3 +188,47 @@ def test_modes_option_is_checked():
     lat = tps.Lattice.planar(n_nodes=5, length=4.0)
     with pytest.raises(ValueError, match="modes"):
         tps.simulate(lat, 2.5, 0.45, np.zeros(5), np.ones(5), t_end=1.0, modes="eigh")
+
+
+needs_numba = pytest.mark.skipif(not jit.enabled(), reason="numba not installed or TPS_SOLVER_NUMBA=0")
+
+
+@needs_numba
+def test_compiled_coefficients_equal_numpy():
+    lat = tps.Lattice.planar(n_nodes=40, length=20.0)
+    cache = RunCache(lat, Modes)
+    free = np.ones(40, dtype=bool)
+    free[[7, 8, 30]] = False
+    rng = np.random.default_rng(5)
+    F = np.flatnonzero(free)
+    w, z = rng.standard_normal(F.size), rng.random(F.size)
+    md = RunModes(lat, free, cache.run, cache.tri)
+    ref = Segment(md, 2.0, w, z, 4.1)
+    from tps_solver.solvers.fda.run_kernels import run_coefficients
+    md2 = RunModes(lat, free, cache.run, cache.tri)
+    md2.kernel = run_coefficients
+    new = Segment(md2, 2.0, w, z, 4.1)
+    for tau in (0.0, 1e-9, 1e-3, 0.3, 4.0):          # both branches of phi2 (|lam tau| < 0.1 and above)
+        for (c0, c1) in zip(ref.coefficients(tau), new.coefficients(tau)):
+            np.testing.assert_allclose(c1, c0, rtol=16 * EPS, atol=16 * EPS * np.abs(c0).max())
+
+
+@needs_numba
+@pytest.mark.parametrize("case", ["kink", "chatter"])
+def test_compiled_and_numpy_paths_same_events(case):
+    if case == "kink":
+        fl = tps.FlatLayer(4.1, 2, 0.0, pattern="stick")
+        lat = tps.Lattice.planar(n_nodes=21, length=20.0)
+        t0 = 0.25 * fl.period
+        w, z = kink_state(lat, fl, t0)
+        args, height = (4.1, 0.0, w, z, t0, t0 + 3 * fl.period), 0.0
+        kw = {}
+    else:
+        lat = tps.Lattice.planar(n_nodes=9, length=8.0)
+        z = 0.3 * (1.0 + 0.2 * np.cos(np.pi * lat.nodes / 4.0))
+        args, height = (0.8, 0.5, np.zeros(9), z, 0.0, 20.0), float(z.max())
+        kw = {"stick_velocity": 1e-6}
+    G, e, w, z, ta, tb = args
+    a, b = [tps.simulate(lat, G, e, w, z, t_start=ta, t_end=tb, method="exact", compiled=c, **kw)
+            for c in (False, True)]
+    _same_events(a, b, 1e-12, height=height)

@@ -60,8 +60,9 @@ import numpy as np
 from scipy.linalg import eigh
 from scipy.optimize import brentq
 
+from tps_solver.core import jit
 from tps_solver.core.checks import check_choice, check_int, check_positive
-from tps_solver.model.flight import phi1, phi2
+from tps_solver.model.flight import phi1, phi2, phi2_expm1
 from tps_solver.solvers.fda.base import Integrator, Step
 from tps_solver.solvers.fda.events import event_sets
 from tps_solver.solvers.fda.runs import RunCache, RunModes
@@ -238,24 +239,47 @@ class Segment:
         lam = modes.abs_lam
         big = np.maximum(1.0, lam)
         abs_s = np.abs(modes.s)
-        # time-independent forcing part of the derivative bounds, m = 1, 2, 3
-        self._forcing = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s) for m in (1, 2, 3)}
+        # time-independent forcing part of the derivative bounds, m = 1, 2, 3 (kept with the modes)
+        cache = modes.__dict__.setdefault("_forcing_bounds", {})
+        self._forcing = cache.get(Gamma)
+        if self._forcing is None:
+            self._forcing = cache[Gamma] = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s)
+                                            for m in (1, 2, 3)}
         self._abs_a = np.abs(self.a)
+        self._runs = isinstance(modes, RunModes)
+        if self._runs:
+            # forced_response in real form: s e^{i t_c}/(i - lam) = rr + i ri, so that
+            # s W = ri (cos tau - e^{lam tau}) + rr sin tau - (s/Gamma) tau phi1 and
+            # s Z = ri (sin tau - tau phi1) + rr (1 - cos tau) - (s/Gamma) tau^2 phi2
+            rot = complex(math.cos(t_c), math.sin(t_c)) * modes.s / (1j - modes.lam)
+            self._rr, self._ri = rot.real, rot.imag
+            self._a_ri = self.a - self._ri
+            self._sg = modes.s / Gamma
 
     def coefficients(self, tau, sl=None):
         """Modal coefficients (velocity, displacement) at local time ``tau`` (of the modes ``sl``, a slice)."""
         lam = self.modes.lam
         a = self.a
-        if sl is not None:
-            lam, a = lam[sl], a[sl]
+        if self._runs:
+            sl = slice(None) if sl is None else sl
+            lam, a_ri, rr, ri, sg = lam[sl], self._a_ri[sl], self._rr[sl], self._ri[sl], self._sg[sl]
+            kern = self.modes.kernel
+            if kern is not None:
+                cw, cz = np.empty(lam.size), np.empty(lam.size)
+                kern(lam, a_ri, rr, ri, sg, float(tau), cw, cz)
+                return cw, cz
+            z = lam * tau
+            em1 = np.expm1(z)
+            tp1 = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0)
+            c, sn = math.cos(tau), math.sin(tau)
+            omc = 2.0 * math.sin(0.5 * tau) ** 2
+            cw = (em1 + 1.0) * a_ri + (c * ri + sn * rr) - sg * tp1
+            cz = tp1 * a_ri + (sn * ri + omc * rr) - (tau * tau) * sg * phi2_expm1(z, em1)
+            return cw, cz
         z = lam * tau
         em1 = np.expm1(z)
         cw = (em1 + 1.0) * a
         cz = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0) * a
-        if sl is not None:             # run modes: unforced modes have s = 0 exactly
-            s = self.modes.s[sl]
-            W, Z = forced_response(lam, self.t_c, tau, self.Gamma)
-            return cw + s * W, cz + s * Z
         act = self.modes.forced
         W, Z = forced_response(lam[act], self.t_c, tau, self.Gamma)
         s = self.modes.s[act]
@@ -358,6 +382,10 @@ class ExactPropagator(Integrator):
         Bound on search steps between two events (raises ``RuntimeError``).
     cache_size : int
         Number of free-set decompositions kept.
+    compiled : bool or None
+        With ``modes="runs"``: the modal coefficients by a compiled kernel
+        (:mod:`.run_kernels`); default: when numba is enabled (:mod:`tps_solver.core.jit`).
+        ``False``: the numpy reference.
     modes : {"runs", "free_set"}
         ``"runs"`` (default): the free set decomposed run by run (:mod:`.runs`: closed-form
         modes on uniform planar lattices, O(n log n) per event); ``"free_set"``: one dense
@@ -379,7 +407,7 @@ class ExactPropagator(Integrator):
     """
 
     name = "exact"
-    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64, "modes": "runs"}
+    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64, "modes": "runs", "compiled": None}
 
     def __init__(self, lattice, Gamma, e, **options):
         super().__init__(lattice, Gamma, e, **options)
@@ -390,6 +418,17 @@ class ExactPropagator(Integrator):
         self._runs = None
         if check_choice(self.options["modes"], "modes", ("runs", "free_set")) == "runs":
             self._runs = RunCache(lattice, Modes, size=4 * self._cache_size)
+        compiled = self.options["compiled"]
+        if compiled not in (None, True, False):
+            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
+        if compiled and not jit.enabled():
+            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
+                             "not set to 0; use compiled=None or False")
+        self.compiled = jit.enabled() if compiled is None else bool(compiled)
+        self._kernel = None
+        if self.compiled and self._runs is not None:
+            from tps_solver.solvers.fda.run_kernels import run_coefficients
+            self._kernel = run_coefficients
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -409,6 +448,7 @@ class ExactPropagator(Integrator):
                 self._n_free_set += 1
             else:
                 m = RunModes(self.lattice, free, self._runs.run, self._runs.tri)
+                m.kernel = self._kernel
             self._cache[key] = m
             if len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
@@ -566,17 +606,23 @@ class ExactPropagator(Integrator):
         newton = fpos[group] / -fp[group]
         lead = int(group[np.argmin(newton)])
         tau_hi = tau + upper[lead]
-        tau_c = self._root(seg, md, lead, tau, tau_hi)
+        tau_c = self._root(seg, md, lead, tau, tau_hi, f[lead], fp[lead], A[lead])
         for _ in range(group.size):
-            vals = self._all_values(seg, md, tau_c)[group]
+            if isinstance(md, RunModes) and group.size <= 8:
+                vals = np.array([self._value_slope(seg, md, int(j), tau_c)[0] for j in group])
+            else:
+                vals = self._all_values(seg, md, tau_c)[group]
             early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
             if not np.any(early):
                 break
             j = int(group[np.argmin(vals / -fp[group])])
-            tau_c = self._root(seg, md, j, tau, tau_c)
+            tau_c = self._root(seg, md, j, tau, tau_c, f[j], fp[j], A[j])
         return tau_c, group
 
-    def _root(self, seg, md, j, lo, hi):
+    def _root(self, seg, md, j, lo, hi, f_lo, fp_lo, A):
+        """The root of candidate ``j`` in its certified monotone bracket ``[lo, hi]`` (local times)."""
+        if isinstance(md, RunModes):
+            return self._newton_root(seg, md, j, lo, hi, f_lo, fp_lo, A)
         flo = self._candidate_value(seg, md, j, lo)
         fhi = self._candidate_value(seg, md, j, hi)
         if flo <= 0.0:
@@ -585,6 +631,88 @@ class ExactPropagator(Integrator):
             return hi
         return brentq(lambda s: self._candidate_value(seg, md, j, s), lo, hi,
                       xtol=1e-15, rtol=4 * _EPS, maxiter=200)
+
+    def _value_slope(self, seg, md, j, tau):
+        """``(f_j, f_j')`` at local time ``tau`` (run modes): height and velocity of a free row,
+        minus the free acceleration and its rate of a stuck row."""
+        nf = md.index.size
+        if j < nf:
+            r = md.run_index(j)
+            o = md.offsets
+            cw, cz = seg.coefficients(tau, slice(o[r], o[r + 1]))
+            row = md.runs[r].row(j - o[r])
+            return seg.zeta0[j] + row @ cz, row @ cw
+        t = seg.t_c + tau
+        g = math.sin(t) - 1.0 / self.Gamma
+        tri = md.L_SF.tri
+        node = int(md.stuck[j - nf])
+        near = range(max(node - 2, 0), min(node + 3, tri.n))
+        w = dict(zip(near, self._node_velocities(seg, md, near, tau)))
+
+        def acc(k):                     # free acceleration of a free neighbour k (0 for a stuck one)
+            if w[k] is None:
+                return 0.0
+            out = g + tri.diag[k] * w[k]
+            for i, c in ((k - 1, tri.lower[k]), (k + 1, tri.upper[k])):
+                if i in w and w[i] is not None:
+                    out += c * w[i]
+            return out
+
+        f, fp = g, math.cos(t)
+        for k, c in ((node - 1, tri.lower[node]), (node + 1, tri.upper[node])):
+            if k in w and w[k] is not None:
+                f += c * w[k]
+                fp += c * acc(k)
+        return -f, -fp
+
+    def _node_velocities(self, seg, md, nodes, tau):
+        """Velocities of lattice ``nodes`` at local time ``tau`` (None for a stuck node), run modes."""
+        rows = np.searchsorted(md.index, nodes)
+        o = md.offsets
+        coef = {}
+        out = []
+        for node, j in zip(nodes, rows):
+            if j >= md.index.size or md.index[j] != node:
+                out.append(None)
+                continue
+            r = md.run_index(j)
+            if r not in coef:
+                coef[r] = seg.coefficients(tau, slice(o[r], o[r + 1]))[0]
+            out.append(float(md.runs[r].row(j - o[r]) @ coef[r]))
+        return out
+
+    def _newton_root(self, seg, md, j, lo, hi, f_lo, fp_lo, A):
+        r"""Newton's method kept inside the bracket (bisection when a step leaves it).
+
+        With :math:`|f''| \le A` on the bracket, the step :math:`s = f/f'` leaves an error of at
+        most :math:`A s^2/(2|f'|)`; the iteration stops once that is below 1e-16 (or the step below
+        the ``brentq`` tolerance ``1e-15 + 4 eps |tau|``), so the root is as accurate as the
+        ``brentq`` polish of the reference path, mostly in two or three evaluations.
+        """
+        if f_lo <= 0.0:
+            return lo
+        x, f, fp = lo, f_lo, fp_lo
+        for _ in range(200):
+            if fp < 0.0:
+                step = f / fp
+                x_new = x - step
+                if lo < x_new < hi and A * step * step <= -1e-16 * fp:
+                    return x_new
+            else:
+                x_new = 0.5 * (lo + hi)
+            if not lo < x_new < hi:
+                x_new = 0.5 * (lo + hi)
+            if abs(x_new - x) <= 1e-15 + 4 * _EPS * abs(x_new) or hi - lo <= 1e-15 + 4 * _EPS * abs(hi):
+                return x_new
+            x = x_new
+            f, fp = self._value_slope(seg, md, j, x)
+            if f == 0.0:
+                return x
+            if f > 0.0:
+                lo = x
+            else:
+                hi = x
+        return x
 
     def _finish(self, seg, md, t0, tau_c, n, samples):
         """State at the event and the simultaneous sets (54)."""

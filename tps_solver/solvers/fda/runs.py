@@ -22,7 +22,7 @@ and a run's flight depends on its own nodes only.  :class:`RunModes` diagonalise
   ======  ===============================================  =====================================
 
   with eigenvalues :math:`\lambda_k = -(4/h^2)\sin^2(\theta_k/2)`; the mode matrix and its inverse
-  are applied by a DST-I, DCT-II/III or DCT-I (``scipy.fft``) in :math:`O(m\log m)`, and since
+  are applied by a DST-I, DCT-II/III or DCT-I (``scipy.fftpack``) in :math:`O(m\log m)`, and since
   :math:`|V_{jk}| \le 1` the derivative bounds of the certified search use
   :math:`\sum_k|V_{jk}|x_k \le \sum_k x_k` (one number per run, :math:`O(m)`);
 * elsewhere (pinned ends, axisymmetric or non-uniform lattices) a run is decomposed densely
@@ -36,7 +36,7 @@ The operator products of the search (:math:`\underline L_{FF}\underline w_F`,
 from collections import OrderedDict
 
 import numpy as np
-from scipy import fft
+from scipy import fftpack as fft      # the same transforms as scipy.fft, less call overhead
 
 __all__ = ["free_runs", "uniform_spacing", "Tridiagonal", "Block", "ClosedRun", "DenseRun", "RunModes", "RunCache"]
 
@@ -255,7 +255,9 @@ class ClosedRun:
 
     def abs_bound(self, x):
         r"""An upper bound of :math:`|V|x` for ``x >= 0`` of shape (m,) or (m, k): :math:`\sum_k x_k` (:math:`|V_{jk}| \le 1`)."""
-        return np.broadcast_to(x.sum(axis=0), (self.m,) + x.shape[1:])
+        out = np.empty((self.m,) + x.shape[1:])
+        out[...] = x.sum(axis=0)
+        return out
 
 
 class DenseRun:
@@ -361,6 +363,7 @@ class RunModes:
             self.lam, self.s = np.empty(0), np.empty(0)
         self.abs_lam = np.abs(self.lam)
         self.forced = np.flatnonzero(self.s)
+        self.kernel = None          # compiled coefficients (set by the propagator), or None: numpy
         self.V = _RunOp(self.runs, self.offsets, "synthesis")
         self.Vinv = _RunOp(self.runs, self.offsets, "analysis")
         self.absV = _RunOp(self.runs, self.offsets, "abs_bound")
