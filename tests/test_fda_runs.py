@@ -232,3 +232,26 @@ def test_compiled_and_numpy_paths_same_events(case):
     a, b = [tps.simulate(lat, G, e, w, z, t_start=ta, t_end=tb, method="exact", compiled=c, **kw)
             for c in (False, True)]
     _same_events(a, b, 1e-12, height=height)
+
+
+@needs_numba
+def test_compiled_step_candidates_equal_numpy():
+    from tps_solver.solvers.fda.exact import ExactPropagator
+    from tps_solver.solvers.fda.run_kernels import step_candidates
+    lat = tps.Lattice.planar(n_nodes=30, length=15.0)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(11)
+    for trial in range(5):
+        free = rng.random(30) < 0.75
+        md = RunModes(lat, free, cache.run, cache.tri)
+        F, S = md.index, md.stuck
+        nf = F.size
+        zF, wF = rng.random(nf) * (rng.random(nf) < 0.8), rng.standard_normal(nf)
+        A, B, rel = 1.0 + rng.random(nf), 1.0 + rng.random(nf), rng.random(nf) - 0.5
+        ref = ExactPropagator._candidates(zF, wF, A, B, rel, 1e-14, -0.3, 0.7, md.L_FF, md.L_SF, md.absL_SF,
+                                          S.size > 0)
+        out = [np.empty(nf + S.size) for _ in range(4)]
+        tri = md.L_FF.tri
+        step_candidates(zF, wF, A, B, rel, 1e-14, -0.3, 0.7, F, S, tri.lower, tri.diag, tri.upper, *out)
+        for a, b in zip(ref, out):
+            np.testing.assert_allclose(b, a, rtol=4 * EPS, atol=0)

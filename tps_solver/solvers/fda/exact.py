@@ -242,6 +242,8 @@ class Segment:
         # time-independent forcing part of the derivative bounds, m = 1, 2, 3 (kept with the modes)
         cache = modes.__dict__.setdefault("_forcing_bounds", {})
         self._forcing = cache.get(Gamma)
+        if self._forcing is None and isinstance(modes, RunModes):
+            self._forcing = cache[Gamma] = modes.forcing_bounds(Gamma)
         if self._forcing is None:
             self._forcing = cache[Gamma] = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s)
                                             for m in (1, 2, 3)}
@@ -291,6 +293,9 @@ class Segment:
         """Velocity and height of the free nodes at local time ``tau``."""
         cw, cz = self.coefficients(tau)
         V = self.modes.V
+        if self._runs:                  # one transform of both columns per run
+            out = V @ np.column_stack((cw, cz))
+            return out[:, 0], self.zeta0 + out[:, 1]
         return V @ cw, self.zeta0 + V @ cz
 
     def node_height(self, j, tau):
@@ -426,9 +431,10 @@ class ExactPropagator(Integrator):
                              "not set to 0; use compiled=None or False")
         self.compiled = jit.enabled() if compiled is None else bool(compiled)
         self._kernel = None
+        self._step_kernel = None
         if self.compiled and self._runs is not None:
-            from tps_solver.solvers.fda.run_kernels import run_coefficients
-            self._kernel = run_coefficients
+            from tps_solver.solvers.fda.run_kernels import run_coefficients, step_candidates
+            self._kernel, self._step_kernel = run_coefficients, step_candidates
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -448,7 +454,7 @@ class ExactPropagator(Integrator):
                 self._n_free_set += 1
             else:
                 m = RunModes(self.lattice, free, self._runs.run, self._runs.tri)
-                m.kernel = self._kernel
+                m.kernel, m.step_kernel = self._kernel, self._step_kernel
             self._cache[key] = m
             if len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
@@ -496,6 +502,8 @@ class ExactPropagator(Integrator):
             self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
                                                           np.cbrt(6.0 * eps_z / jerk[rel]))
         release = self._guard[F] - t0
+        step_kernel = getattr(md, "step_kernel", None)
+        tri = L_FF.tri if step_kernel is not None else None
         steps = 0
         while True:
             steps += 1
@@ -507,24 +515,14 @@ class ExactPropagator(Integrator):
                 wF, zF = seg.state(tau)
             g = math.sin(t_now) - 1.0 / Gamma
             dg = math.cos(t_now)
-            accF = L_FF @ wF + g
             A, B = seg.bounds12(tau)
-            h_contact = _safe_step(zF, wF, A)
-            # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
-            h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
-            h_contact = np.maximum(np.maximum(h_contact, h_rise), release - tau)
-            if has_stuck:
-                # lift-off candidates: f = -a for stuck nodes
-                accS = g + L_SF @ wF
-                daccS = dg + L_SF @ accF
-                CS = 1.0 + absL_SF @ B
-                h_lift = _safe_step(-accS, -daccS, CS)
-                f = np.concatenate((zF, -accS))
-                fp = np.concatenate((wF, -daccS))
-                Abound = np.concatenate((A, CS))
-                h = np.concatenate((h_contact, h_lift))
+            if step_kernel is not None:
+                f, fp, Abound, h = (np.empty(nf + S.size) for _ in range(4))
+                step_kernel(zF, wF, A, B, release - tau, eps_w, g, dg, F, S, tri.lower, tri.diag, tri.upper,
+                            f, fp, Abound, h)
             else:
-                f, fp, Abound, h = zF, wF, A, h_contact
+                f, fp, Abound, h = self._candidates(zF, wF, A, B, release - tau, eps_w, g, dg, L_FF, L_SF,
+                                                    absL_SF, has_stuck)
             if h.size == 0:
                 hm = np.inf
             else:
@@ -554,6 +552,24 @@ class ExactPropagator(Integrator):
                 return out
             self._sample(seg, F, S, t0, tau, tau + hm, t_eval, samples, w.size)
             tau += hm
+
+    @staticmethod
+    def _candidates(zF, wF, A, B, rel, eps_w, g, dg, L_FF, L_SF, absL_SF, has_stuck):
+        """Candidates ``f``, slopes ``fp``, bounds and safe steps ``h`` of one search step (free rows, then stuck)."""
+        accF = L_FF @ wF + g
+        h_contact = _safe_step(zF, wF, A)
+        # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
+        h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
+        h_contact = np.maximum(np.maximum(h_contact, h_rise), rel)
+        if not has_stuck:
+            return zF, wF, A, h_contact
+        # lift-off candidates: f = -a for stuck nodes
+        accS = g + L_SF @ wF
+        daccS = dg + L_SF @ accF
+        CS = 1.0 + absL_SF @ B
+        h_lift = _safe_step(-accS, -daccS, CS)
+        return (np.concatenate((zF, -accS)), np.concatenate((wF, -daccS)), np.concatenate((A, CS)),
+                np.concatenate((h_contact, h_lift)))
 
     # ------------------------------------------------------------ internals
     def _full(self, F, n, wF, zF):

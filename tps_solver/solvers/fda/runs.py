@@ -214,6 +214,7 @@ class ClosedRun:
         s = self.analysis(np.ones(m))
         s[np.abs(s) <= 1e-15 * np.abs(s).max(initial=0.0)] = 0.0
         self.s = s
+        self._forcing = {}
 
     def analysis(self, u):
         r"""Modal coefficients :math:`V^{-1}u` of ``u``, shape (m,)."""
@@ -253,6 +254,17 @@ class ClosedRun:
         """The mode matrix ``V`` (columns are the modes), shape (m, m): for tests."""
         return self.synthesis(np.eye(self.m))
 
+    def forcing(self, Gamma):
+        r"""The forcing parts of the derivative bounds :math:`D_1, D_2, D_3` (see :class:`~.exact.Segment`), shape (3, m)."""
+        out = self._forcing.get(Gamma)
+        if out is None:
+            G = 1.0 + 1.0 / Gamma
+            big = np.maximum(1.0, np.abs(self.lam))
+            abs_s = np.abs(self.s)
+            out = np.array([self.abs_bound((p + 1) * G * big ** (p - 1) * abs_s) for p in (1, 2, 3)])
+            self._forcing[Gamma] = out
+        return out
+
     def abs_bound(self, x):
         r"""An upper bound of :math:`|V|x` for ``x >= 0`` of shape (m,) or (m, k): :math:`\sum_k x_k` (:math:`|V_{jk}| \le 1`)."""
         out = np.empty((self.m,) + x.shape[1:])
@@ -278,6 +290,9 @@ class DenseRun:
         mask[modes.forced] = True
         s[~mask] = 0.0
         self.s = s
+        self._forcing = {}
+
+    forcing = ClosedRun.forcing
 
     def analysis(self, u):
         return self.md.Vinv @ u
@@ -373,9 +388,24 @@ class RunModes:
         self.L_SF = Block(tri, S, idx)
         self.absL_SF = Block(tri, S, idx, absolute=True)
 
+    def forcing_bounds(self, Gamma):
+        """``{p: D_p forcing part}`` for p = 1, 2, 3, arrays of shape (n_free,) (kept per run)."""
+        if len(self.runs) == 1:
+            f = self.runs[0].forcing(Gamma)
+        elif self.runs:
+            f = np.concatenate([r.forcing(Gamma) for r in self.runs], axis=1)
+        else:
+            f = np.zeros((3, 0))
+        return {1: f[0], 2: f[1], 3: f[2]}
+
     def run_index(self, j):
         """Number of the run holding free row ``j``."""
         return int(np.searchsorted(self.offsets, j, side="right")) - 1
+
+
+#: closed-form runs by (length, ends, spacing), shared by all propagators (O(m) memory each)
+_CLOSED = OrderedDict()
+_CLOSED_SIZE = 8192
 
 
 class RunCache:
@@ -403,7 +433,6 @@ class RunCache:
         self.h = uniform_spacing(lattice)
         self.n = lattice.n_nodes
         self.size = int(size)
-        self._closed = {}
         self._dense = OrderedDict()
         self.n_decompositions = 0
         aut = lattice.autonomous
@@ -415,10 +444,12 @@ class RunCache:
         right = "D" if stop < self.n else self._ends[1]
         m = stop - start
         if self.h is not None and left is not None and right is not None:
-            key = (m, left + right)
-            run = self._closed.get(key)
+            key = (m, left + right, self.h)
+            run = _CLOSED.get(key)
             if run is None:
-                run = self._closed[key] = ClosedRun(m, left + right, self.h)
+                run = _CLOSED[key] = ClosedRun(m, left + right, self.h)
+                if len(_CLOSED) > _CLOSED_SIZE:
+                    _CLOSED.popitem(last=False)
             return run
         key = (start, stop)
         run = self._dense.get(key)
