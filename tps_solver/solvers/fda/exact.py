@@ -64,7 +64,7 @@ from tps_solver.core import jit
 from tps_solver.core.checks import check_choice, check_int, check_positive
 from tps_solver.model.flight import phi1, phi2, phi2_expm1
 from tps_solver.solvers.fda.base import Integrator, Step
-from tps_solver.solvers.fda.events import event_sets
+from tps_solver.solvers.fda.events import event_sets, tridiagonal
 from tps_solver.solvers.fda.runs import RunCache, RunModes
 
 __all__ = ["candidate_group", "forced_response", "Modes", "Segment", "ExactPropagator"]
@@ -422,7 +422,7 @@ class ExactPropagator(Integrator):
         self._cache_size = check_int(self.options["cache_size"], "cache_size", minimum=1)
         self._runs = None
         if check_choice(self.options["modes"], "modes", ("runs", "free_set")) == "runs":
-            self._runs = RunCache(lattice, Modes, size=4 * self._cache_size)
+            self._runs = RunCache(lattice, Modes, size=4 * self._cache_size, tri=tridiagonal(lattice))
         compiled = self.options["compiled"]
         if compiled not in (None, True, False):
             raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
@@ -623,7 +623,7 @@ class ExactPropagator(Integrator):
         lead = int(group[np.argmin(newton)])
         tau_hi = tau + upper[lead]
         tau_c = self._root(seg, md, lead, tau, tau_hi, f[lead], fp[lead], A[lead])
-        for _ in range(group.size):
+        for _ in range(group.size if group.size > 1 or not isinstance(md, RunModes) else 0):
             if isinstance(md, RunModes) and group.size <= 8:
                 vals = np.array([self._value_slope(seg, md, int(j), tau_c)[0] for j in group])
             else:

@@ -419,6 +419,8 @@ class RunCache:
         (:class:`~tps_solver.solvers.fda.exact.Modes`), used for runs without closed form.
     size : int
         Dense run decompositions kept (least recently used dropped).
+    tri : Tridiagonal, optional
+        The lattice operator's :class:`Tridiagonal` (formed here if not given).
 
     Attributes
     ----------
@@ -426,10 +428,10 @@ class RunCache:
         Dense decompositions computed (closed forms are not counted).
     """
 
-    def __init__(self, lattice, decompose, size=256):
+    def __init__(self, lattice, decompose, size=256, tri=None):
         self.lattice = lattice
         self.decompose = decompose
-        self.tri = Tridiagonal(lattice.operator)
+        self.tri = Tridiagonal(lattice.operator) if tri is None else tri
         self.h = uniform_spacing(lattice)
         self.n = lattice.n_nodes
         self.size = int(size)
