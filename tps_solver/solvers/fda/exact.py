@@ -235,28 +235,31 @@ class Segment:
         self.a = modes.Vinv @ w_free
         self.zeta0 = zeta_free.copy()
         self.Gamma = Gamma
-        G = 1.0 + 1.0 / Gamma
-        lam = modes.abs_lam
-        big = np.maximum(1.0, lam)
-        abs_s = np.abs(modes.s)
         # time-independent forcing part of the derivative bounds, m = 1, 2, 3 (kept with the modes)
         cache = modes.__dict__.setdefault("_forcing_bounds", {})
         self._forcing = cache.get(Gamma)
-        if self._forcing is None and isinstance(modes, RunModes):
-            self._forcing = cache[Gamma] = modes.forcing_bounds(Gamma)
-        if self._forcing is None:
-            self._forcing = cache[Gamma] = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s)
-                                            for m in (1, 2, 3)}
-        self._abs_a = np.abs(self.a)
         self._runs = isinstance(modes, RunModes)
+        if self._forcing is None:
+            if self._runs:
+                # s/(i - lam) and s/Gamma of the real form of forced_response (see coefficients)
+                self._forcing = modes.forcing_bounds(Gamma)
+                self._forcing["s_res"] = modes.s / (1j - modes.lam)
+                self._forcing["sg"] = modes.s / Gamma
+            else:
+                G = 1.0 + 1.0 / Gamma
+                big = np.maximum(1.0, modes.abs_lam)
+                abs_s = np.abs(modes.s)
+                self._forcing = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s) for m in (1, 2, 3)}
+            cache[Gamma] = self._forcing
+        self._abs_a = np.abs(self.a)
         if self._runs:
             # forced_response in real form: s e^{i t_c}/(i - lam) = rr + i ri, so that
             # s W = ri (cos tau - e^{lam tau}) + rr sin tau - (s/Gamma) tau phi1 and
             # s Z = ri (sin tau - tau phi1) + rr (1 - cos tau) - (s/Gamma) tau^2 phi2
-            rot = complex(math.cos(t_c), math.sin(t_c)) * modes.s / (1j - modes.lam)
+            rot = complex(math.cos(t_c), math.sin(t_c)) * self._forcing["s_res"]
             self._rr, self._ri = rot.real, rot.imag
             self._a_ri = self.a - self._ri
-            self._sg = modes.s / Gamma
+            self._sg = self._forcing["sg"]
 
     def coefficients(self, tau, sl=None):
         """Modal coefficients (velocity, displacement) at local time ``tau`` (of the modes ``sl``, a slice)."""
@@ -422,7 +425,7 @@ class ExactPropagator(Integrator):
         self._cache_size = check_int(self.options["cache_size"], "cache_size", minimum=1)
         self._runs = None
         if check_choice(self.options["modes"], "modes", ("runs", "free_set")) == "runs":
-            self._runs = RunCache(lattice, Modes, size=4 * self._cache_size, tri=tridiagonal(lattice))
+            self._runs = RunCache.of(lattice, Modes, tri=tridiagonal(lattice))
         compiled = self.options["compiled"]
         if compiled not in (None, True, False):
             raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
@@ -447,14 +450,14 @@ class ExactPropagator(Integrator):
     def modes(self, free):
         """Cached :class:`Modes` (or :class:`~.runs.RunModes`) of the free set ``free`` (bool mask)."""
         key = np.packbits(free).tobytes()
+        if self._runs is not None:          # kept per lattice, across propagators (period maps)
+            m = self._runs.modes(free, key)
+            m.kernel, m.step_kernel = self._kernel, self._step_kernel
+            return m
         m = self._cache.get(key)
         if m is None:
-            if self._runs is None:
-                m = Modes(self.lattice, free)
-                self._n_free_set += 1
-            else:
-                m = RunModes(self.lattice, free, self._runs.run, self._runs.tri)
-                m.kernel, m.step_kernel = self._kernel, self._step_kernel
+            m = Modes(self.lattice, free)
+            self._n_free_set += 1
             self._cache[key] = m
             if len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)

@@ -33,6 +33,7 @@ The operator products of the search (:math:`\underline L_{FF}\underline w_F`,
 :math:`\underline L_{SF}\underline w_F` and their absolute values) are tridiagonal,
 :math:`O(n)` (:class:`Tridiagonal`, :class:`Block`).
 """
+import weakref
 from collections import OrderedDict
 
 import numpy as np
@@ -426,7 +427,36 @@ class RunCache:
     ----------
     n_decompositions : int
         Dense decompositions computed (closed forms are not counted).
+
+    Notes
+    -----
+    :meth:`of` keeps one cache per lattice (weakly referenced), so the period maps of a
+    shooting run share it; :meth:`modes` keeps the :class:`RunModes` of the free sets seen
+    (least recently used dropped; :math:`O(n)` memory each, at most about 100 MB in all).
     """
+
+    _per_lattice = weakref.WeakKeyDictionary()
+
+    @classmethod
+    def of(cls, lattice, decompose, tri=None):
+        """The cache of ``lattice`` (created on first use)."""
+        cache = cls._per_lattice.get(lattice)
+        if cache is None or cache.decompose is not decompose or cache.n != lattice.n_nodes:
+            cache = cls._per_lattice[lattice] = cls(lattice, decompose, tri=tri)
+        return cache
+
+    def modes(self, free, key=None):
+        """The :class:`RunModes` of the free set ``free`` (bool mask; ``key``: its packed bytes)."""
+        if key is None:
+            key = np.packbits(free).tobytes()
+        m = self._free_sets.get(key)
+        if m is None:
+            m = self._free_sets[key] = RunModes(self.lattice, free, self.run, self.tri)
+            if len(self._free_sets) > self._free_set_size:
+                self._free_sets.popitem(last=False)
+        else:
+            self._free_sets.move_to_end(key)
+        return m
 
     def __init__(self, lattice, decompose, size=256, tri=None):
         self.lattice = lattice
@@ -436,6 +466,8 @@ class RunCache:
         self.n = lattice.n_nodes
         self.size = int(size)
         self._dense = OrderedDict()
+        self._free_sets = OrderedDict()
+        self._free_set_size = int(min(4096, max(64, 1.25e8 // (80 * self.n))))
         self.n_decompositions = 0
         aut = lattice.autonomous
         self._ends = ("N" if not aut[0] else None, "N" if not aut[-1] else None)
