@@ -7,7 +7,10 @@ sticks and lifts off: 4n - 2 events per period), settled for ``--settle`` period
 state with
 
 * ``free_set``: ``modes="free_set"``, one dense eigendecomposition per free set (the old path);
-* ``runs``: ``modes="runs"``, closed-form run modes (:mod:`tps_solver.solvers.fda.runs`).
+* ``runs``: ``modes="runs"``, closed-form run modes (:mod:`tps_solver.solvers.fda.runs`), with the
+  compiled kernels when numba is installed.  Its decompositions are kept per lattice across period
+  maps (as in a shooting run); ``runs s, cold`` is one map after dropping them
+  (``clear_caches``), the other columns the minimum over repeats.
 
 CPU time (``time.process_time``), one BLAS thread, minimum over ``--repeat`` interleaved runs.
 Printed: seconds per period map, events per period, the scaling exponent between consecutive
@@ -27,6 +30,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 import tps_solver as tps
+from tps_solver.solvers.fda.runs import clear_caches
 from tps_solver.solvers.fda.states import kink_state
 from tps_solver.solvers.shooting.period_map import PeriodMap
 
@@ -51,13 +55,19 @@ def main():
     parser.add_argument("--old-max", type=int, default=321, help="largest size timed on the old path")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--settle", type=int, default=4)
+    parser.add_argument("--accuracy-max", type=int, default=161,
+                        help="largest size of the 10-period comparison of the event times")
     args = parser.parse_args()
-    rows = []
+    rows, acc = [], {}
     with threadpool_limits(1):
         for n in args.sizes:
             maps, x = settled_map(n, args.settle)
             modes = ("free_set", "runs") if n <= args.old_max else ("runs",)
             best, runs = {}, {}
+            clear_caches()          # a cold map: no run decomposition kept from the settling run
+            tic = time.process_time()
+            maps["runs"].run(x)
+            cold = time.process_time() - tic
             for _ in range(args.repeat):
                 for mode in modes:
                     tic = time.process_time()
@@ -71,19 +81,28 @@ def main():
                     dt = float(np.max(np.abs(a.t - b.t)))
                 else:
                     dt = float("inf")
-            rows.append((n, best.get("free_set", float("nan")), best["runs"], int(b.size), dt))
+            if n <= args.accuracy_max:
+                ten = [maps[mode].run(x, periods=10).events for mode in ("free_set", "runs")]
+                same = ten[0].size == ten[1].size and np.array_equal(ten[0].node, ten[1].node) \
+                    and np.array_equal(ten[0].kind, ten[1].kind)
+                acc[n] = (ten[1].size, float(np.max(np.abs(ten[0].t - ten[1].t))) if same else float("inf"))
+            rows.append((n, best.get("free_set", float("nan")), best["runs"], int(b.size), dt, cold))
             print(f"n = {n}: done ({best})", flush=True)
-    print("\n| nodes | events / period | free_set s | runs s | ratio | exponent free_set | exponent runs "
-          "| max dt of events |")
-    print("|---|---|---|---|---|---|---|---|")
-    for i, (n, old, new, ev, dt) in enumerate(rows):
+    print("\n| nodes | events / period | free_set s | runs s | runs s, cold | ratio | exponent free_set "
+          "| exponent runs | max dt of events |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for i, (n, old, new, ev, dt, cold) in enumerate(rows):
         if i:
             n0, old0, new0 = rows[i - 1][:3]
             e_old = math.log(old / old0) / math.log(n / n0)
             e_new = math.log(new / new0) / math.log(n / n0)
         else:
             e_old = e_new = float("nan")
-        print(f"| {n} | {ev} | {old:.3f} | {new:.3f} | {old / new:.1f} | {e_old:.2f} | {e_new:.2f} | {dt:.1e} |")
+        print(f"| {n} | {ev} | {old:.3f} | {new:.3f} | {cold:.3f} | {old / new:.1f} | {e_old:.2f} | {e_new:.2f} "
+              f"| {dt:.1e} |")
+    for n, (k, d) in acc.items():
+        print(f"\n{n} nodes, 10 periods from the settled state: {k} events, same nodes and kinds, "
+              f"max |t_free_set - t_runs| = {d:.1e}")
     if len(rows) > 2:
         sel = [r for r in rows if r[0] >= 81]
         if len(sel) >= 2:

@@ -255,3 +255,15 @@ def test_compiled_step_candidates_equal_numpy():
         step_candidates(zF, wF, A, B, rel, 1e-14, -0.3, 0.7, F, S, tri.lower, tri.diag, tri.upper, *out)
         for a, b in zip(ref, out):
             np.testing.assert_allclose(b, a, rtol=4 * EPS, atol=0)
+
+
+def test_axisymmetric_sticking_same_events():
+    # no closed form: dense run modes cached by node range (DenseRun), against the whole free set
+    from tps_solver.solvers.fda.states import oscillon_state
+    fl = tps.FlatLayer(4.1, 2, 0.0, pattern="stick")
+    lat = tps.Lattice.axisymmetric(n_nodes=12, r_max=8.0)
+    t0 = 0.25 * fl.period
+    w, z = oscillon_state(lat, fl, t0, r_core=2.0, width=1.0)
+    a, b = _both(lat, 4.1, 0.0, w, z, t0, t0 + 2 * fl.period)
+    assert np.count_nonzero(b.events.kind == "liftoff") >= 12
+    _same_events(a, b, 1e-11)

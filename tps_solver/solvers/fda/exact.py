@@ -67,9 +67,11 @@ from tps_solver.solvers.fda.base import Integrator, Step
 from tps_solver.solvers.fda.events import event_sets, tridiagonal
 from tps_solver.solvers.fda.runs import RunCache, RunModes
 
-__all__ = ["candidate_group", "forced_response", "Modes", "Segment", "ExactPropagator"]
+__all__ = ["candidate_group", "forced_response", "Modes", "Segment", "ExactPropagator", "COMPILED_MIN_NODES"]
 
 _EPS = np.finfo(float).eps
+#: smallest lattice on which ``ExactPropagator(compiled=None)`` uses the compiled kernels
+COMPILED_MIN_NODES = 17
 
 
 def forced_response(lam, t_c, tau, Gamma):
@@ -391,9 +393,9 @@ class ExactPropagator(Integrator):
     cache_size : int
         Number of free-set decompositions kept.
     compiled : bool or None
-        With ``modes="runs"``: the modal coefficients by a compiled kernel
-        (:mod:`.run_kernels`); default: when numba is enabled (:mod:`tps_solver.core.jit`).
-        ``False``: the numpy reference.
+        With ``modes="runs"``: the modal coefficients and the search steps by compiled kernels
+        (:mod:`.run_kernels`); default: when numba is enabled (:mod:`tps_solver.core.jit`) and
+        the lattice has at least :data:`COMPILED_MIN_NODES` nodes.  ``False``: the numpy reference.
     modes : {"runs", "free_set"}
         ``"runs"`` (default): the free set decomposed run by run (:mod:`.runs`: closed-form
         modes on uniform planar lattices, O(n log n) per event); ``"free_set"``: one dense
@@ -432,12 +434,11 @@ class ExactPropagator(Integrator):
         if compiled and not jit.enabled():
             raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
                              "not set to 0; use compiled=None or False")
-        self.compiled = jit.enabled() if compiled is None else bool(compiled)
-        self._kernel = None
-        self._step_kernel = None
-        if self.compiled and self._runs is not None:
-            from tps_solver.solvers.fda.run_kernels import run_coefficients, step_candidates
-            self._kernel, self._step_kernel = run_coefficients, step_candidates
+        # default: compiled from COMPILED_MIN_NODES nodes on (numba's start in a fresh process, about
+        # 2 s, is more than the kernels save on smaller lattices in most runs)
+        self.compiled = (jit.enabled() and lattice.n_nodes >= COMPILED_MIN_NODES) if compiled is None \
+            else bool(compiled)
+        self._kernel = self._step_kernel = None        # imported on first use (inside the driver's loop)
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -451,6 +452,9 @@ class ExactPropagator(Integrator):
         """Cached :class:`Modes` (or :class:`~.runs.RunModes`) of the free set ``free`` (bool mask)."""
         key = np.packbits(free).tobytes()
         if self._runs is not None:          # kept per lattice, across propagators (period maps)
+            if self.compiled and self._kernel is None:
+                from tps_solver.solvers.fda.run_kernels import run_coefficients, step_candidates
+                self._kernel, self._step_kernel = run_coefficients, step_candidates
             m = self._runs.modes(free, key)
             m.kernel, m.step_kernel = self._kernel, self._step_kernel
             return m

@@ -39,7 +39,8 @@ from collections import OrderedDict
 import numpy as np
 from scipy import fftpack as fft      # the same transforms as scipy.fft, less call overhead
 
-__all__ = ["free_runs", "uniform_spacing", "Tridiagonal", "Block", "ClosedRun", "DenseRun", "RunModes", "RunCache"]
+__all__ = ["free_runs", "uniform_spacing", "Tridiagonal", "Block", "ClosedRun", "DenseRun", "RunModes", "RunCache",
+           "clear_caches"]
 
 
 def free_runs(free):
@@ -498,3 +499,16 @@ class RunCache:
         else:
             self._dense.move_to_end(key)
         return run
+
+
+def clear_caches():
+    """Drop every kept run decomposition (closed forms and per-lattice caches), e.g. to time a cold start.
+
+    Examples
+    --------
+    >>> clear_caches()
+    >>> len(_CLOSED)
+    0
+    """
+    _CLOSED.clear()
+    RunCache._per_lattice.clear()
