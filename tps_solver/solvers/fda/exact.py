@@ -25,7 +25,11 @@ and :math:`\mathcal Z_\lambda = \int_0^\tau\mathcal W_\lambda` are closed forms
 stuck node :math:`\underline\sigma` is the null mode and (55) is recovered exactly.
 With stuck nodes :math:`\underline\sigma_F` is no longer a null vector and the
 other modes are forced too; the formula stays exact ("re-decompose the free
-sub-lattice").  Decompositions are cached per free set.
+sub-lattice").  By default (``modes="runs"``) the free set is decomposed run by run
+(:mod:`.runs`: stuck nodes cut the lattice into independent runs of free nodes, with
+closed-form modes on a uniform planar lattice), so an event costs :math:`O(n\log n)`
+instead of an :math:`O(n^3)` eigendecomposition; :class:`Modes` of the whole free set
+(``modes="free_set"``) is the reference.
 
 Contact search: certified, it cannot step over a double crossing (docs/design.md, hazards 4-5)
 ----------------------------------------------------------------------------------

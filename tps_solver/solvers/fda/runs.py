@@ -281,6 +281,17 @@ class DenseRun:
     ----------
     modes : Modes
         The decomposition of the run's free set (only the run's nodes free).
+
+    Examples
+    --------
+    A run touching a pinned end (an autonomous node: an exact zero mode):
+
+    >>> from tps_solver import Lattice
+    >>> from tps_solver.solvers.fda.exact import Modes
+    >>> lat = Lattice.planar(n_nodes=5, length=4.0, boundary="pinned")
+    >>> run = RunCache(lat, Modes).run(0, 2)
+    >>> type(run).__name__, np.round(np.sort(run.lam), 12).tolist()
+    ('DenseRun', [-2.0, 0.0])
     """
 
     def __init__(self, modes):
