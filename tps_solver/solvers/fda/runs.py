@@ -444,7 +444,7 @@ class RunCache:
     -----
     :meth:`of` keeps one cache per lattice (weakly referenced), so the period maps of a
     shooting run share it; :meth:`modes` keeps the :class:`RunModes` of the free sets seen
-    (least recently used dropped; :math:`O(n)` memory each, at most about 100 MB in all).
+    (least recently used dropped; about 100 n bytes each, at most about 150 MB in all).
     """
 
     _per_lattice = weakref.WeakKeyDictionary()
