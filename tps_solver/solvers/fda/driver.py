@@ -86,7 +86,10 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
         ``ValueError`` naming it):
 
         * ``"exact"`` (:class:`~.exact.ExactPropagator`): ``time_tol`` (simultaneity window of a
-          contact set, default 1e-12), ``max_steps``, ``cache_size``;
+          contact set, default 1e-12), ``max_steps``, ``cache_size``, ``modes`` (``"runs"``, the
+          default: the free set decomposed run by run, closed-form modes on uniform planar
+          lattices, see :mod:`.runs`; ``"free_set"``: one dense eigendecomposition per free set,
+          the reference), ``compiled`` (compiled kernels of the run path; default: with numba);
         * ``"point"`` (:class:`~.point.PointIntegrator`): the same model and options as
           ``"exact"``, with the modal amplitudes carried across events by rank-k updates
           (2-3x faster; the same events);

@@ -30,14 +30,16 @@ Every event is logged as a record ``(t, node, kind, w_before)`` with ``kind`` in
 once, as ``"stick"``, with its impact velocity.
 """
 import math
+import weakref
 
 import numpy as np
 
 from tps_solver.core.checks import check_choice, check_nonnegative, check_positive
 from tps_solver.model.restitution import RestitutionLaw
+from tps_solver.solvers.fda.runs import Tridiagonal
 
 __all__ = ["EVENT_DTYPE", "point_impact", "diffused_impact", "make_impact_rule", "EventLog",
-           "event_sets", "apply_contacts", "apply_liftoff", "pulled_off"]
+           "event_sets", "apply_contacts", "apply_liftoff", "pulled_off", "tridiagonal"]
 
 EVENT_DTYPE = np.dtype([("t", float), ("node", np.int64), ("kind", "U7"), ("w_before", float)])
 IMPACTS = ("point", "diffused")
@@ -390,6 +392,25 @@ def apply_liftoff(t, w, zeta, stuck, nodes, log):
     log.add(t, nodes, "liftoff", np.zeros(np.size(nodes)))
 
 
+_TRIDIAGONAL = weakref.WeakKeyDictionary()
+
+
+def tridiagonal(lattice):
+    """The :class:`~tps_solver.solvers.fda.runs.Tridiagonal` form of ``lattice.operator`` (kept per lattice).
+
+    Examples
+    --------
+    >>> from tps_solver import Lattice
+    >>> lat = Lattice.planar(n_nodes=4, length=3.0)
+    >>> tridiagonal(lat) is tridiagonal(lat), tridiagonal(lat).diag.tolist()
+    (True, [-2.0, -2.0, -2.0, -2.0])
+    """
+    tri = _TRIDIAGONAL.get(lattice)
+    if tri is None or tri.n != lattice.n_nodes:
+        tri = _TRIDIAGONAL[lattice] = Tridiagonal(lattice.operator)
+    return tri
+
+
 def pulled_off(t, w, stuck, lattice, Gamma):
     """Stuck nodes whose free acceleration is positive beyond round-off right now.
 
@@ -413,9 +434,10 @@ def pulled_off(t, w, stuck, lattice, Gamma):
     S = np.flatnonzero(stuck)
     if S.size == 0:
         return S
-    L = lattice.operator[S]
-    acc = math.sin(t) - 1.0 / Gamma + L @ w
+    tri = tridiagonal(lattice)           # O(n): the operator is tridiagonal
+    g = math.sin(t) - 1.0 / Gamma
+    acc = g + tri.apply(w)[S]
     if not np.count_nonzero(acc > 0.0):       # eps_a > 0: no node is pulled off
         return S[:0]
-    eps_a = _EPS64 * (1.0 + abs(math.sin(t) - 1.0 / Gamma) + np.abs(L) @ np.abs(w))
+    eps_a = _EPS64 * (1.0 + abs(g) + tri.apply_abs(np.abs(w))[S])
     return S[acc > eps_a]

@@ -25,7 +25,11 @@ and :math:`\mathcal Z_\lambda = \int_0^\tau\mathcal W_\lambda` are closed forms
 stuck node :math:`\underline\sigma` is the null mode and (55) is recovered exactly.
 With stuck nodes :math:`\underline\sigma_F` is no longer a null vector and the
 other modes are forced too; the formula stays exact ("re-decompose the free
-sub-lattice").  Decompositions are cached per free set.
+sub-lattice").  By default (``modes="runs"``) the free set is decomposed run by run
+(:mod:`.runs`: stuck nodes cut the lattice into independent runs of free nodes, with
+closed-form modes on a uniform planar lattice), so an event costs :math:`O(n\log n)`
+instead of an :math:`O(n^3)` eigendecomposition; :class:`Modes` of the whole free set
+(``modes="free_set"``) is the reference.
 
 Contact search: certified, it cannot step over a double crossing (docs/design.md, hazards 4-5)
 ----------------------------------------------------------------------------------
@@ -60,14 +64,18 @@ import numpy as np
 from scipy.linalg import eigh
 from scipy.optimize import brentq
 
-from tps_solver.core.checks import check_int, check_positive
-from tps_solver.model.flight import phi1, phi2
+from tps_solver.core import jit
+from tps_solver.core.checks import check_choice, check_int, check_positive
+from tps_solver.model.flight import phi1, phi2, phi2_expm1
 from tps_solver.solvers.fda.base import Integrator, Step
-from tps_solver.solvers.fda.events import event_sets
+from tps_solver.solvers.fda.events import event_sets, tridiagonal
+from tps_solver.solvers.fda.runs import RunCache, RunModes
 
-__all__ = ["candidate_group", "forced_response", "Modes", "Segment", "ExactPropagator"]
+__all__ = ["candidate_group", "forced_response", "Modes", "Segment", "ExactPropagator", "COMPILED_MIN_NODES"]
 
 _EPS = np.finfo(float).eps
+#: smallest lattice on which ``ExactPropagator(compiled=None)`` uses the compiled kernels
+COMPILED_MIN_NODES = 17
 
 
 def forced_response(lam, t_c, tau, Gamma):
@@ -233,21 +241,56 @@ class Segment:
         self.a = modes.Vinv @ w_free
         self.zeta0 = zeta_free.copy()
         self.Gamma = Gamma
-        G = 1.0 + 1.0 / Gamma
-        lam = modes.abs_lam
-        big = np.maximum(1.0, lam)
-        abs_s = np.abs(modes.s)
-        # time-independent forcing part of the derivative bounds, m = 1, 2, 3
-        self._forcing = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s) for m in (1, 2, 3)}
+        # time-independent forcing part of the derivative bounds, m = 1, 2, 3 (kept with the modes)
+        cache = modes.__dict__.setdefault("_forcing_bounds", {})
+        self._forcing = cache.get(Gamma)
+        self._runs = isinstance(modes, RunModes)
+        if self._forcing is None:
+            if self._runs:
+                # s/(i - lam) and s/Gamma of the real form of forced_response (see coefficients)
+                self._forcing = modes.forcing_bounds(Gamma)
+                self._forcing["s_res"] = modes.s / (1j - modes.lam)
+                self._forcing["sg"] = modes.s / Gamma
+            else:
+                G = 1.0 + 1.0 / Gamma
+                big = np.maximum(1.0, modes.abs_lam)
+                abs_s = np.abs(modes.s)
+                self._forcing = {m: modes.absV @ ((m + 1) * G * big ** (m - 1) * abs_s) for m in (1, 2, 3)}
+            cache[Gamma] = self._forcing
         self._abs_a = np.abs(self.a)
+        if self._runs:
+            # forced_response in real form: s e^{i t_c}/(i - lam) = rr + i ri, so that
+            # s W = ri (cos tau - e^{lam tau}) + rr sin tau - (s/Gamma) tau phi1 and
+            # s Z = ri (sin tau - tau phi1) + rr (1 - cos tau) - (s/Gamma) tau^2 phi2
+            rot = complex(math.cos(t_c), math.sin(t_c)) * self._forcing["s_res"]
+            self._rr, self._ri = rot.real, rot.imag
+            self._a_ri = self.a - self._ri
+            self._sg = self._forcing["sg"]
 
-    def coefficients(self, tau):
-        """Modal coefficients (velocity, displacement) at local time ``tau``."""
+    def coefficients(self, tau, sl=None):
+        """Modal coefficients (velocity, displacement) at local time ``tau`` (of the modes ``sl``, a slice)."""
         lam = self.modes.lam
+        a = self.a
+        if self._runs:
+            sl = slice(None) if sl is None else sl
+            lam, a_ri, rr, ri, sg = lam[sl], self._a_ri[sl], self._rr[sl], self._ri[sl], self._sg[sl]
+            kern = self.modes.kernel
+            if kern is not None:
+                cw, cz = np.empty(lam.size), np.empty(lam.size)
+                kern(lam, a_ri, rr, ri, sg, float(tau), cw, cz)
+                return cw, cz
+            z = lam * tau
+            em1 = np.expm1(z)
+            tp1 = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0)
+            c, sn = math.cos(tau), math.sin(tau)
+            omc = 2.0 * math.sin(0.5 * tau) ** 2
+            cw = (em1 + 1.0) * a_ri + (c * ri + sn * rr) - sg * tp1
+            cz = tp1 * a_ri + (sn * ri + omc * rr) - (tau * tau) * sg * phi2_expm1(z, em1)
+            return cw, cz
         z = lam * tau
         em1 = np.expm1(z)
-        cw = (em1 + 1.0) * self.a
-        cz = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0) * self.a
+        cw = (em1 + 1.0) * a
+        cz = tau * np.divide(em1, z, out=np.ones_like(z), where=z != 0.0) * a
         act = self.modes.forced
         W, Z = forced_response(lam[act], self.t_c, tau, self.Gamma)
         s = self.modes.s[act]
@@ -259,12 +302,21 @@ class Segment:
         """Velocity and height of the free nodes at local time ``tau``."""
         cw, cz = self.coefficients(tau)
         V = self.modes.V
+        if self._runs:                  # one transform of both columns per run
+            out = V @ np.column_stack((cw, cz))
+            return out[:, 0], self.zeta0 + out[:, 1]
         return V @ cw, self.zeta0 + V @ cz
 
     def node_height(self, j, tau):
         """Height of free node number ``j`` (row of ``V``) at local time ``tau``."""
+        md = self.modes
+        if isinstance(md, RunModes):          # only the run holding node j
+            r = md.run_index(j)
+            o = md.offsets
+            _, cz = self.coefficients(tau, slice(o[r], o[r + 1]))
+            return self.zeta0[j] + md.runs[r].row(j - o[r]) @ cz
         _, cz = self.coefficients(tau)
-        return self.zeta0[j] + self.modes.V[j] @ cz
+        return self.zeta0[j] + md.V[j] @ cz
 
     def bounds12(self, tau):
         """``(D_1, D_2)`` in one matrix product (see :meth:`derivative_bound`)."""
@@ -344,6 +396,15 @@ class ExactPropagator(Integrator):
         Bound on search steps between two events (raises ``RuntimeError``).
     cache_size : int
         Number of free-set decompositions kept.
+    compiled : bool or None
+        With ``modes="runs"``: the modal coefficients and the search steps by compiled kernels
+        (:mod:`.run_kernels`); default: when numba is enabled (:mod:`tps_solver.core.jit`) and
+        the lattice has at least :data:`COMPILED_MIN_NODES` nodes.  ``False``: the numpy reference.
+    modes : {"runs", "free_set"}
+        ``"runs"`` (default): the free set decomposed run by run (:mod:`.runs`: closed-form
+        modes on uniform planar lattices, O(n log n) per event); ``"free_set"``: one dense
+        eigendecomposition of the whole free set per new free set (:class:`Modes`, O(n^3)),
+        the reference.
 
     Examples
     --------
@@ -360,7 +421,7 @@ class ExactPropagator(Integrator):
     """
 
     name = "exact"
-    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64}
+    OPTIONS = {"time_tol": 1e-12, "max_steps": 200000, "cache_size": 64, "modes": "runs", "compiled": None}
 
     def __init__(self, lattice, Gamma, e, **options):
         super().__init__(lattice, Gamma, e, **options)
@@ -368,17 +429,43 @@ class ExactPropagator(Integrator):
         self.max_steps = check_int(self.options["max_steps"], "max_steps", minimum=1)
         self._cache = OrderedDict()
         self._cache_size = check_int(self.options["cache_size"], "cache_size", minimum=1)
-        self.n_decompositions = 0
+        self._runs = None
+        if check_choice(self.options["modes"], "modes", ("runs", "free_set")) == "runs":
+            self._runs = RunCache.of(lattice, Modes, tri=tridiagonal(lattice))
+        compiled = self.options["compiled"]
+        if compiled not in (None, True, False):
+            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
+        if compiled and not jit.enabled():
+            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
+                             "not set to 0; use compiled=None or False")
+        # default: compiled from COMPILED_MIN_NODES nodes on (numba's start in a fresh process, about
+        # 2 s, is more than the kernels save on smaller lattices in most runs)
+        self.compiled = (jit.enabled() and lattice.n_nodes >= COMPILED_MIN_NODES) if compiled is None \
+            else bool(compiled)
+        self._kernel = self._step_kernel = None        # imported on first use (inside the driver's loop)
+        self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
 
+    @property
+    def n_decompositions(self):
+        """Dense eigendecompositions computed (free sets, or runs without closed form)."""
+        return self._n_free_set + (self._runs.n_decompositions if self._runs is not None else 0)
+
     def modes(self, free):
-        """Cached :class:`Modes` of the free set ``free`` (bool mask)."""
+        """Cached :class:`Modes` (or :class:`~.runs.RunModes`) of the free set ``free`` (bool mask)."""
         key = np.packbits(free).tobytes()
+        if self._runs is not None:          # kept per lattice, across propagators (period maps)
+            if self.compiled and self._kernel is None:
+                from tps_solver.solvers.fda.run_kernels import run_coefficients, step_candidates
+                self._kernel, self._step_kernel = run_coefficients, step_candidates
+            m = self._runs.modes(free, key)
+            m.kernel, m.step_kernel = self._kernel, self._step_kernel
+            return m
         m = self._cache.get(key)
         if m is None:
             m = Modes(self.lattice, free)
-            self.n_decompositions += 1
+            self._n_free_set += 1
             self._cache[key] = m
             if len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
@@ -426,6 +513,8 @@ class ExactPropagator(Integrator):
             self._guard[F[rel]] = t0 + delay + np.maximum(3.0 * jerk[rel] / C[rel],
                                                           np.cbrt(6.0 * eps_z / jerk[rel]))
         release = self._guard[F] - t0
+        step_kernel = getattr(md, "step_kernel", None)
+        tri = L_FF.tri if step_kernel is not None else None
         steps = 0
         while True:
             steps += 1
@@ -437,24 +526,14 @@ class ExactPropagator(Integrator):
                 wF, zF = seg.state(tau)
             g = math.sin(t_now) - 1.0 / Gamma
             dg = math.cos(t_now)
-            accF = L_FF @ wF + g
             A, B = seg.bounds12(tau)
-            h_contact = _safe_step(zF, wF, A)
-            # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
-            h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
-            h_contact = np.maximum(np.maximum(h_contact, h_rise), release - tau)
-            if has_stuck:
-                # lift-off candidates: f = -a for stuck nodes
-                accS = g + L_SF @ wF
-                daccS = dg + L_SF @ accF
-                CS = 1.0 + absL_SF @ B
-                h_lift = _safe_step(-accS, -daccS, CS)
-                f = np.concatenate((zF, -accS))
-                fp = np.concatenate((wF, -daccS))
-                Abound = np.concatenate((A, CS))
-                h = np.concatenate((h_contact, h_lift))
+            if step_kernel is not None:
+                f, fp, Abound, h = (np.empty(nf + S.size) for _ in range(4))
+                step_kernel(zF, wF, A, B, release - tau, eps_w, g, dg, F, S, tri.lower, tri.diag, tri.upper,
+                            f, fp, Abound, h)
             else:
-                f, fp, Abound, h = zF, wF, A, h_contact
+                f, fp, Abound, h = self._candidates(zF, wF, A, B, release - tau, eps_w, g, dg, L_FF, L_SF,
+                                                    absL_SF, has_stuck)
             if h.size == 0:
                 hm = np.inf
             else:
@@ -485,6 +564,24 @@ class ExactPropagator(Integrator):
             self._sample(seg, F, S, t0, tau, tau + hm, t_eval, samples, w.size)
             tau += hm
 
+    @staticmethod
+    def _candidates(zF, wF, A, B, rel, eps_w, g, dg, L_FF, L_SF, absL_SF, has_stuck):
+        """Candidates ``f``, slopes ``fp``, bounds and safe steps ``h`` of one search step (free rows, then stuck)."""
+        accF = L_FF @ wF + g
+        h_contact = _safe_step(zF, wF, A)
+        # rising nodes (w >= 0 to round-off) are safe while w's lower bound stays positive
+        h_rise = np.where(wF >= -eps_w, _safe_step(np.maximum(wF, 0.0), accF, B), 0.0)
+        h_contact = np.maximum(np.maximum(h_contact, h_rise), rel)
+        if not has_stuck:
+            return zF, wF, A, h_contact
+        # lift-off candidates: f = -a for stuck nodes
+        accS = g + L_SF @ wF
+        daccS = dg + L_SF @ accF
+        CS = 1.0 + absL_SF @ B
+        h_lift = _safe_step(-accS, -daccS, CS)
+        return (np.concatenate((zF, -accS)), np.concatenate((wF, -daccS)), np.concatenate((A, CS)),
+                np.concatenate((h_contact, h_lift)))
+
     # ------------------------------------------------------------ internals
     def _full(self, F, n, wF, zF):
         w = np.zeros(n)
@@ -508,6 +605,11 @@ class ExactPropagator(Integrator):
             return seg.node_height(j, tau)
         wF, _ = seg.state(tau)
         g = math.sin(seg.t_c + tau) - 1.0 / self.Gamma
+        if isinstance(md, RunModes):
+            node = md.stuck[j - nf]
+            u = np.zeros(self.lattice.n_nodes)
+            u[md.index] = wF
+            return -(g + float(md.L_SF.tri.apply(u)[node]))
         return -(g + md.L_SF[j - nf] @ wF)
 
     def _all_values(self, seg, md, tau):
@@ -531,17 +633,23 @@ class ExactPropagator(Integrator):
         newton = fpos[group] / -fp[group]
         lead = int(group[np.argmin(newton)])
         tau_hi = tau + upper[lead]
-        tau_c = self._root(seg, md, lead, tau, tau_hi)
-        for _ in range(group.size):
-            vals = self._all_values(seg, md, tau_c)[group]
+        tau_c = self._root(seg, md, lead, tau, tau_hi, f[lead], fp[lead], A[lead])
+        for _ in range(group.size if group.size > 1 or not isinstance(md, RunModes) else 0):
+            if isinstance(md, RunModes) and group.size <= 8:
+                vals = np.array([self._value_slope(seg, md, int(j), tau_c)[0] for j in group])
+            else:
+                vals = self._all_values(seg, md, tau_c)[group]
             early = vals < -self.time_tol * np.abs(fp[group]) - 64 * _EPS
             if not np.any(early):
                 break
             j = int(group[np.argmin(vals / -fp[group])])
-            tau_c = self._root(seg, md, j, tau, tau_c)
+            tau_c = self._root(seg, md, j, tau, tau_c, f[j], fp[j], A[j])
         return tau_c, group
 
-    def _root(self, seg, md, j, lo, hi):
+    def _root(self, seg, md, j, lo, hi, f_lo, fp_lo, A):
+        """The root of candidate ``j`` in its certified monotone bracket ``[lo, hi]`` (local times)."""
+        if isinstance(md, RunModes):
+            return self._newton_root(seg, md, j, lo, hi, f_lo, fp_lo, A)
         flo = self._candidate_value(seg, md, j, lo)
         fhi = self._candidate_value(seg, md, j, hi)
         if flo <= 0.0:
@@ -550,6 +658,88 @@ class ExactPropagator(Integrator):
             return hi
         return brentq(lambda s: self._candidate_value(seg, md, j, s), lo, hi,
                       xtol=1e-15, rtol=4 * _EPS, maxiter=200)
+
+    def _value_slope(self, seg, md, j, tau):
+        """``(f_j, f_j')`` at local time ``tau`` (run modes): height and velocity of a free row,
+        minus the free acceleration and its rate of a stuck row."""
+        nf = md.index.size
+        if j < nf:
+            r = md.run_index(j)
+            o = md.offsets
+            cw, cz = seg.coefficients(tau, slice(o[r], o[r + 1]))
+            row = md.runs[r].row(j - o[r])
+            return seg.zeta0[j] + row @ cz, row @ cw
+        t = seg.t_c + tau
+        g = math.sin(t) - 1.0 / self.Gamma
+        tri = md.L_SF.tri
+        node = int(md.stuck[j - nf])
+        near = range(max(node - 2, 0), min(node + 3, tri.n))
+        w = dict(zip(near, self._node_velocities(seg, md, near, tau)))
+
+        def acc(k):                     # free acceleration of a free neighbour k (0 for a stuck one)
+            if w[k] is None:
+                return 0.0
+            out = g + tri.diag[k] * w[k]
+            for i, c in ((k - 1, tri.lower[k]), (k + 1, tri.upper[k])):
+                if i in w and w[i] is not None:
+                    out += c * w[i]
+            return out
+
+        f, fp = g, math.cos(t)
+        for k, c in ((node - 1, tri.lower[node]), (node + 1, tri.upper[node])):
+            if k in w and w[k] is not None:
+                f += c * w[k]
+                fp += c * acc(k)
+        return -f, -fp
+
+    def _node_velocities(self, seg, md, nodes, tau):
+        """Velocities of lattice ``nodes`` at local time ``tau`` (None for a stuck node), run modes."""
+        rows = np.searchsorted(md.index, nodes)
+        o = md.offsets
+        coef = {}
+        out = []
+        for node, j in zip(nodes, rows):
+            if j >= md.index.size or md.index[j] != node:
+                out.append(None)
+                continue
+            r = md.run_index(j)
+            if r not in coef:
+                coef[r] = seg.coefficients(tau, slice(o[r], o[r + 1]))[0]
+            out.append(float(md.runs[r].row(j - o[r]) @ coef[r]))
+        return out
+
+    def _newton_root(self, seg, md, j, lo, hi, f_lo, fp_lo, A):
+        r"""Newton's method kept inside the bracket (bisection when a step leaves it).
+
+        With :math:`|f''| \le A` on the bracket, the step :math:`s = f/f'` leaves an error of at
+        most :math:`A s^2/(2|f'|)`; the iteration stops once that is below 1e-16 (or the step below
+        the ``brentq`` tolerance ``1e-15 + 4 eps |tau|``), so the root is as accurate as the
+        ``brentq`` polish of the reference path, mostly in two or three evaluations.
+        """
+        if f_lo <= 0.0:
+            return lo
+        x, f, fp = lo, f_lo, fp_lo
+        for _ in range(200):
+            if fp < 0.0:
+                step = f / fp
+                x_new = x - step
+                if lo < x_new < hi and A * step * step <= -1e-16 * fp:
+                    return x_new
+            else:
+                x_new = 0.5 * (lo + hi)
+            if not lo < x_new < hi:
+                x_new = 0.5 * (lo + hi)
+            if abs(x_new - x) <= 1e-15 + 4 * _EPS * abs(x_new) or hi - lo <= 1e-15 + 4 * _EPS * abs(hi):
+                return x_new
+            x = x_new
+            f, fp = self._value_slope(seg, md, j, x)
+            if f == 0.0:
+                return x
+            if f > 0.0:
+                lo = x
+            else:
+                hi = x
+        return x
 
     def _finish(self, seg, md, t0, tau_c, n, samples):
         """State at the event and the simultaneous sets (54)."""

@@ -1,0 +1,169 @@
+r"""Compiled modal coefficients of a run segment (:class:`~tps_solver.solvers.fda.exact.Segment` with run modes).
+
+:func:`run_coefficients` is the loop form of the run path of
+:meth:`~tps_solver.solvers.fda.exact.Segment.coefficients`: per mode :math:`k`, with
+:math:`z = \lambda_k\tau`,
+
+.. math::
+    c_w &= e^{z}(a_k - r_i) + r_i\cos\tau + r_r\sin\tau - (s_k/\Gamma)\,\tau\varphi_1(z), \\
+    c_z &= \tau\varphi_1(z)(a_k - r_i) + r_i\sin\tau + r_r(1 - \cos\tau) - (s_k/\Gamma)\,\tau^2\varphi_2(z),
+
+(the closed forms (55)-(56) of :func:`~tps_solver.solvers.fda.exact.forced_response` in real
+arithmetic, :math:`r_r + i r_i = s_k e^{it_c}/(i - \lambda_k)`), with :math:`\varphi_2` by its
+Taylor series (10 terms, truncation below 1e-18 relative) for :math:`|z| < 0.1`.  Compiled
+with numba when the ``fast`` extra is installed (:mod:`tps_solver.core.jit`); the numpy form in
+:meth:`~tps_solver.solvers.fda.exact.Segment.coefficients` is the reference (option
+``compiled=False`` of :class:`~tps_solver.solvers.fda.exact.ExactPropagator`).
+
+:func:`step_candidates` is one step of the certified contact search of
+:meth:`~tps_solver.solvers.fda.exact.ExactPropagator.advance` (the candidates, their safe steps
+and bounds) with the tridiagonal operator products done node by node, in the same arithmetic
+order as :class:`~tps_solver.solvers.fda.runs.Tridiagonal`.
+"""
+import math
+
+import numpy as np
+
+from tps_solver.core.jit import kernel
+
+__all__ = ["run_coefficients", "step_candidates"]
+
+_PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
+
+
+@kernel
+def run_coefficients(lam, a_ri, rr, ri, sg, tau, cw, cz):
+    """Fill ``cw``, ``cz`` (shape (m,)) with the velocity and displacement coefficients at ``tau``.
+
+    Parameters
+    ----------
+    lam, a_ri, rr, ri, sg : ndarray of float, shape (m,)
+        Eigenvalues, :math:`a - r_i`, :math:`r_r`, :math:`r_i` and :math:`s/\\Gamma` (module docstring).
+    tau : float
+    cw, cz : ndarray of float, shape (m,)
+        Output.
+
+    Examples
+    --------
+    A zero mode with no forcing keeps its velocity and moves ``a tau``:
+
+    >>> cw, cz = np.empty(1), np.empty(1)
+    >>> run_coefficients(np.zeros(1), np.array([2.0]), np.zeros(1), np.zeros(1), np.zeros(1), 0.5, cw, cz)
+    >>> cw.tolist(), cz.tolist()
+    ([2.0], [1.0])
+    """
+    c = math.cos(tau)
+    sn = math.sin(tau)
+    h = math.sin(0.5 * tau)
+    omc = 2.0 * h * h
+    tt = tau * tau
+    series = _PHI2_SERIES
+    for k in range(lam.size):
+        z = lam[k] * tau
+        em1 = math.expm1(z)
+        if z != 0.0:
+            p1 = em1 / z
+        else:
+            p1 = 1.0
+        if abs(z) < 0.1:
+            p2 = series[9]
+            for i in range(8, -1, -1):
+                p2 = p2 * z + series[i]
+        else:
+            p2 = (em1 - z) / (z * z)
+        tp1 = tau * p1
+        cw[k] = (em1 + 1.0) * a_ri[k] + (c * ri[k] + sn * rr[k]) - sg[k] * tp1
+        cz[k] = tp1 * a_ri[k] + (sn * ri[k] + omc * rr[k]) - tt * sg[k] * p2
+
+
+@kernel
+def _safe(f, fp, A):
+    """:func:`~tps_solver.solvers.fda.exact._safe_step` for one candidate."""
+    if f < 0.0:
+        f = 0.0
+    root = math.sqrt(fp * fp + 2.0 * A * f)
+    if fp >= 0.0:
+        return (fp + root) / A if A > 0.0 else math.inf
+    den = root - fp
+    return 2.0 * f / den if den > 0.0 else 0.0
+
+
+@kernel
+def step_candidates(zF, wF, A, B, rel, eps_w, g, dg, F, S, lower, diag, upper, f, fp, Ab, h):
+    r"""One search step: candidates ``f``, slopes ``fp``, bounds ``Ab`` and safe steps ``h`` (in place).
+
+    Rows ``0 .. nf - 1`` are the free nodes ``F`` (heights; safe while above the plate or rising),
+    rows ``nf ..`` the stuck nodes ``S`` (minus their free accelerations), as in the interpreted
+    search of :meth:`~tps_solver.solvers.fda.exact.ExactPropagator.advance`.
+
+    Parameters
+    ----------
+    zF, wF, A, B, rel : ndarray of float, shape (nf,)
+        Heights, velocities, bounds :math:`D_1, D_2` and the release guards (local time left).
+    eps_w, g, dg : float
+        Velocity round-off, :math:`g(t)` and :math:`\dot g(t)`.
+    F, S : ndarray of int64
+        Free and stuck nodes.
+    lower, diag, upper : ndarray of float, shape (n,)
+        The lattice operator's diagonals (:class:`~tps_solver.solvers.fda.runs.Tridiagonal`).
+    f, fp, Ab, h : ndarray of float, shape (nf + ns,)
+        Output.
+
+    Examples
+    --------
+    One free node falling onto the plate, no stuck node: safe for ``2 z / (sqrt(w^2 + 2 A z) - w)``:
+
+    >>> F, S = np.array([0]), np.zeros(0, dtype=np.int64)
+    >>> f, fp, Ab, h = (np.empty(1) for _ in range(4))
+    >>> step_candidates(np.array([1.0]), np.array([-1.0]), np.array([2.0]), np.array([1.0]), np.zeros(1),
+    ...                 1e-15, -0.5, 0.0, F, S, np.zeros(1), np.zeros(1), np.zeros(1), f, fp, Ab, h)
+    >>> bool(abs(h[0] - 2.0 / (np.sqrt(5.0) + 1.0)) < 1e-15)
+    True
+    """
+    n = lower.size
+    nf = F.size
+    u = np.zeros(n)
+    acc = np.zeros(n)
+    Bn = np.zeros(n)
+    for j in range(nf):
+        u[F[j]] = wF[j]
+        Bn[F[j]] = B[j]
+    for j in range(nf):
+        i = F[j]
+        a = diag[i] * u[i]
+        if i > 0:
+            a += lower[i] * u[i - 1]
+        if i < n - 1:
+            a += upper[i] * u[i + 1]
+        a += g
+        acc[i] = a
+        w = wF[j]
+        hc = _safe(zF[j], w, A[j])
+        if w >= -eps_w:
+            hr = _safe(w if w > 0.0 else 0.0, a, B[j])
+            if hr > hc:
+                hc = hr
+        if rel[j] > hc:
+            hc = rel[j]
+        f[j] = zF[j]
+        fp[j] = w
+        Ab[j] = A[j]
+        h[j] = hc
+    for k in range(S.size):
+        i = S[k]
+        a = diag[i] * u[i]
+        da = 0.0
+        c = 0.0
+        if i > 0:
+            a += lower[i] * u[i - 1]
+            da += lower[i] * acc[i - 1]
+            c += abs(lower[i]) * Bn[i - 1]
+        if i < n - 1:
+            a += upper[i] * u[i + 1]
+            da += upper[i] * acc[i + 1]
+            c += abs(upper[i]) * Bn[i + 1]
+        r = nf + k
+        f[r] = -(g + a)
+        fp[r] = -(dg + da)
+        Ab[r] = 1.0 + c
+        h[r] = _safe(f[r], fp[r], Ab[r])
