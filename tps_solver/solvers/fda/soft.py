@@ -125,6 +125,7 @@ import mpmath
 import numpy as np
 from scipy.linalg import lapack
 
+from tps_solver.core import jit
 from tps_solver.core.checks import check_int, check_positive
 from tps_solver.solvers.fda.base import Integrator, Step
 from tps_solver.operators.lattice import Lattice
@@ -230,6 +231,11 @@ class SoftIntegrator(Integrator):
     max_events : int
         Bound on events per node within one forcing period :math:`2\pi`
         (default 200): beyond it :meth:`advance` raises ``RuntimeError``.
+    compiled : bool or None, optional
+        Run the step loop, the scan and the switch search as compiled kernels
+        (:mod:`~tps_solver.solvers.fda.soft_kernels`, the ``fast`` extra); ``None`` (default):
+        where numba is installed (:func:`tps_solver.core.jit.enabled`).  ``False`` is the numpy
+        path, the reference; the two agree to rounding.
 
     Attributes
     ----------
@@ -255,7 +261,7 @@ class SoftIntegrator(Integrator):
     name = "soft"
     impulsive = False
     OPTIONS = {"cutoff": None, "rtol": 1e-12, "atol": 1e-12, "stages": 6, "stick_speed": 1e-4,
-               "time_tol": 1e-12, "max_step": None, "max_events": 200}
+               "time_tol": 1e-12, "max_step": None, "max_events": 200, "compiled": None}
 
     def __init__(self, lattice, Gamma, e, **options):
         super().__init__(lattice, Gamma, e, **options)
@@ -283,6 +289,13 @@ class SoftIntegrator(Integrator):
         self.max_step = (self.tau_c if opt["max_step"] is None
                          else check_positive(opt["max_step"], "max_step"))
         self.max_events = check_int(opt["max_events"], "max_events", minimum=1)
+        compiled = opt["compiled"]
+        if compiled not in (None, True, False):
+            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
+        if compiled and not jit.enabled():
+            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
+                             "not set to 0; use compiled=None or False")
+        self.compiled = jit.enabled() if compiled is None else bool(compiled)
         self.n_rejected = 0
 
         L = np.asarray(lattice.operator, float)
@@ -348,6 +361,14 @@ class SoftIntegrator(Integrator):
         self._is_contact = np.array([0.0, 1.0, 0.0])   # lookup tables indexed by mode
         self._is_free = np.array([1.0, 0.0, 0.0])
         self._sign = np.array([-1.0, 1.0, 1.0])
+        if self.compiled:
+            from tps_solver.solvers.fda import soft_kernels
+            self._kernels = soft_kernels
+            # the tableau as the kernels take it (C-contiguous)
+            self._keig = tuple(np.ascontiguousarray(a) for a in (
+                self._lam, self._q, self._Tinv_rep, self._Trep, self._c, self._cT, self._dense))
+            self._kLl = np.concatenate(([0.0], self._Ll))        # full operator row j: L[j, j-1], L[j, j+1]
+            self._kLu = np.concatenate((self._Lu, [0.0]))
 
     # ------------------------------------------------------------ linear algebra
     def _Lmul(self, u):
@@ -379,6 +400,7 @@ class SoftIntegrator(Integrator):
         cfg.__dict__.update(rows)
         c = cfg.c = self._is_contact[mode]
         cfg.f = self._is_free[mode]
+        cfg.held = held
         cfg.sgn = self._sign[mode]                      # violation: -zeta (free), zeta (contact)
         cfg.om2c = self.omega0_sq * c
         cfg.dw = cfg.Ld - (2.0 * self.beta) * c         # diagonal of the w-row of A acting on w
@@ -680,13 +702,24 @@ class SoftIntegrator(Integrator):
         order = self._order
         while True:
             t_target = t_stop if k_eval >= t_eval.size else min(t_stop, t_eval[k_eval])
-            R0 = self._start(w, z, cfg)
+            R0 = None if self.compiled else self._start(w, z, cfg)
             if fc is not None:
                 # the previous trial step predicted more crossings: go straight to the next one
                 found = self._from_forecast(t, w, z, mode, cfg, fc, t_target, R0)
                 fc = None
                 if found is not None:
                     return self._finish(t, w, z, mode, cfg, *found, t_eval, k_eval, samples, events, R0)
+            if self.compiled:
+                # the loop below as one kernel call: steps to t_target or to a step with a crossing
+                t, crossing = self._march(t, t_target, w, z, mode, cfg)
+                if crossing is not None:
+                    return self._finish(t, w, z, mode, cfg, *crossing, t_eval, k_eval, samples, events)
+                if k_eval < t_eval.size and t_eval[k_eval] == t:
+                    samples.append((t, w.copy(), z.copy()))
+                    k_eval += 1
+                if t >= t_stop:
+                    return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
+                continue
             h = min(self._h, self.max_step, t_target - t)
             last = h >= t_target - t
             # step ends are floats and steps are their exact differences (no drift of t)
@@ -757,6 +790,38 @@ class SoftIntegrator(Integrator):
             if t >= t_stop:
                 return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
 
+    def _march(self, t, t_target, w, z, mode, cfg):
+        """Compiled path of the step loop of :meth:`advance` (:func:`.soft_kernels.march`).
+
+        Accepted steps update ``w, z`` in place.  Returns ``(t, None)`` at ``t_target``, or
+        ``(t, (j, he, we, ze, fc))`` with the located crossing of a step that starts at ``t``.
+        """
+        kn = self._kernels
+        n = self.n
+        xnodes, xguess, xtop, xstate = np.empty(n, np.int64), np.empty(n), np.empty(n), np.empty(2)
+        status, t, self._h, count, steps, rejected = kn.march(
+            t, t_target, self._h, self.max_step, w, z, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.sgn,
+            cfg.held, cfg.hidx, cfg.him, cfg.hip, cfg.hLd, cfg.hLl, cfg.hLu, 1.0 / self.Gamma, self.rtol,
+            self.atol, self._order, self.time_tol, *self._keig, self._theta, self._vinv,
+            xnodes, xguess, xtop, xstate)
+        self.n_steps += steps
+        self.n_rejected += rejected
+        if status == kn.NONFINITE:
+            raise RuntimeError(f"soft integrator: non-finite state at t = {t:.15g}")
+        if status == kn.UNDERFLOW:
+            raise RuntimeError(f"soft integrator: step size underflow at t = {t:.15g}")
+        if status == kn.SINGULAR:
+            raise RuntimeError(f"soft integrator: singular stage system at t = {t:.15g}")
+        if status == kn.REACHED:
+            return t, None
+        nodes, guess = xnodes[:count], xguess[:count]
+        i = int(np.argmin(guess))
+        j = int(nodes[i])
+        he, we, ze = self._locate(t, w, z, mode, cfg, j, float(guess[i]) - t, float(xtop[i]) - t,
+                                  h_lo=4.0 * self.time_tol if xstate[1] else 0.0)
+        fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": float(xstate[0])}
+        return t, (j, he, we, ze, fc)
+
     def _from_forecast(self, t, w, z, mode, cfg, fc, t_target, R0):
         """Locate the next predicted crossing without a trial step; None if the prediction fails."""
         ok = (fc["mode"] == mode[fc["nodes"]]) & (fc["guess"] < fc["t_limit"])
@@ -816,6 +881,20 @@ class SoftIntegrator(Integrator):
         switch is located to the precision of h (not of t).  Returns (h, w, zeta) at the crossing.
         ``h_lo > 0``: node j starts on the wrong side of its last switch (see :meth:`advance`).
         """
+        if self.compiled:
+            kn = self._kernels
+            we, ze = np.empty(self.n), np.empty(self.n)
+            status, hk, steps = kn.locate(
+                t0, w0, z0, int(j), float(guess), float(h_hi), bool(verified), float(h_lo), cfg.dw, cfg.om2c,
+                cfg.f, cfg.Ll, cfg.Lu, cfg.sgn, cfg.rows_ok, self._Ld[j], self._kLl[j], self._kLu[j],
+                1.0 / self.Gamma, *self._keig, we, ze)
+            self.n_steps += steps
+            if status == 0:
+                return hk, we, ze
+            if status == kn.UNVERIFIED:
+                return None
+            raise RuntimeError(f"soft integrator: switch search of node {j} stalled near t = {t0 + hk:.15g}; "
+                               "try a smaller max_step or time_tol")
         lo, hi = min(h_lo, 0.5 * h_hi), h_hi
         hk = min(max(guess, 0.0), h_hi)
         best = None
