@@ -26,14 +26,12 @@ per step, whatever the contact set.  The step size is controlled by step
 doubling (the difference of one step and two half steps estimates the local
 error of the order-:math:`2s-1` method) against ``rtol``/``atol``.
 
-Cost: besides ``zgtsv`` a step is a fixed, small number of numpy calls -- the
-configuration constants are cached per contact set (and per held set), the
-state part of the stage right-hand sides is formed once per start state (the
-trial step and the Newton steps of a switch search share it), and the stage
-values and the scan grid come from one real matrix product.  On the 481-node
-kink of ``benchmarks/soft_benchmark.py`` (4609 switches, 21659 steps in two
-periods) ``zgtsv`` is about a quarter of the run and numpy call overhead most
-of the rest (measured with a sampling profiler).
+Cost: on the numpy path (``compiled=False``, the reference) a step is ``zgtsv`` and a fixed, small
+number of numpy calls (configuration constants cached per contact set, the state part of the stage
+right-hand sides formed once per start state, stage values and scan grid from one real product); numpy
+call overhead is most of it.  With numba (the default where installed) the step loop, the scan and the
+switch search run as compiled kernels (:mod:`~tps_solver.solvers.fda.soft_kernels`) and agree with the
+numpy path to rounding; ``benchmarks/soft_benchmark.py`` times both.
 
 Switches
 --------
@@ -117,17 +115,15 @@ soft contact or release of a held node, ``w_before`` = velocity at exit) and
 the capture).
 """
 import collections
-import functools
-import inspect
 import math
 
-import mpmath
 import numpy as np
 from scipy.linalg import lapack
 
 from tps_solver.core import jit
 from tps_solver.core.checks import check_int, check_positive
 from tps_solver.solvers.fda.base import Integrator, Step
+from tps_solver.solvers.fda.radau_tableau import lagrange_matrix, radau_iia
 from tps_solver.operators.lattice import Lattice
 from tps_solver.model.soft_flat import soft_contact_parameters
 
@@ -136,70 +132,8 @@ __all__ = ["SoftIntegrator", "radau_iia"]
 _FREE, _CONTACT, _HELD = 0, 1, 2
 
 
-def radau_iia(s):
-    r"""Nodes and Butcher matrix of the ``s``-stage Radau IIA method (computed in 40-digit arithmetic).
-
-    Parameters
-    ----------
-    s : int
-        Number of stages, >= 1 (order :math:`2s - 1`).
-
-    Returns
-    -------
-    c : ndarray of float, shape (s,)
-        Nodes, the roots of :math:`d^{s-1}/dx^{s-1}[x^{s-1}(x-1)^s]`; ``c[-1] = 1``.
-    A : ndarray of float, shape (s, s)
-        :math:`A_{ij} = \int_0^{c_i}\ell_j(\tau)\,d\tau` (collocation).
-
-    Examples
-    --------
-    >>> c, A = radau_iia(2)
-    >>> np.round(c, 12).tolist(), np.round(A, 12).tolist()
-    ([0.333333333333, 1.0], [[0.416666666667, -0.083333333333], [0.75, 0.25]])
-    """
-    s = check_int(s, "s", minimum=1)
-    c, A = _radau_iia(s)
-    return c.copy(), A.copy()
-
-
-@functools.lru_cache(maxsize=None)
-def _radau_iia(s):
-    """:func:`radau_iia` without the copies (cached: 40-digit arithmetic takes ~70 ms per call)."""
-    with mpmath.workdps(40):
-        x = mpmath.mpf
-        # coefficients of x^(s-1) (x-1)^s, highest degree first
-        p = [mpmath.binomial(s, k) * (-1) ** k for k in range(s + 1)] + [x(0)] * (s - 1)
-        for _ in range(s - 1):                      # differentiate s-1 times
-            deg = len(p) - 1
-            p = [p[i] * (deg - i) for i in range(deg)]
-        if len(p) <= 2:
-            roots = [-p[1] / p[0]]
-        elif "asc" in inspect.signature(mpmath.polyroots).parameters:      # mpmath >= 1.4
-            roots = mpmath.polyroots(p[::-1], maxsteps=200, extraprec=80, asc=True)
-        else:
-            roots = mpmath.polyroots(p, maxsteps=200, extraprec=80)
-        c = sorted(mpmath.re(r) for r in roots)
-        c[-1] = x(1)
-        V = mpmath.matrix([[ci ** m for m in range(s)] for ci in c])
-        W = mpmath.matrix([[ci ** (m + 1) / (m + 1) for m in range(s)] for ci in c])
-        A = W * V ** -1
-        return (np.array([float(ci) for ci in c]),
-                np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]))
-
-
 class _Config:
     """Constants of one contact configuration (attributes set by ``SoftIntegrator._config``)."""
-
-
-def _lagrange_matrix(nodes, theta):
-    """Values at ``theta`` of the Lagrange basis on ``nodes``: shape (len(theta), len(nodes))."""
-    nodes = np.asarray(nodes, float)
-    out = np.ones((len(theta), nodes.size))
-    for j in range(nodes.size):
-        for m in range(nodes.size):
-            if m != j:
-                out[:, j] *= (theta - nodes[m]) / (nodes[j] - nodes[m])
-    return out
 
 
 class SoftIntegrator(Integrator):
@@ -336,7 +270,7 @@ class SoftIntegrator(Integrator):
         self._nodes = np.concatenate(([0.0], c))
         G = s + 2
         self._theta = np.arange(1, G + 1) / G
-        self._dense = _lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
+        self._dense = lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
         self._vinv = np.linalg.inv(np.vander(self._nodes, increasing=True))              # monomials
         self._order = 2 * s - 1
         self._h = None
@@ -406,8 +340,9 @@ class SoftIntegrator(Integrator):
         cfg.dw = cfg.Ld - (2.0 * self.beta) * c         # diagonal of the w-row of A acting on w
         cfg.dz = -cfg.om2c                              # ... acting on zeta
         # stacked block-tridiagonal stage matrix 1 + h P1 + h^2 P2 (blocks separated by zeros)
-        cfg.P1 = np.multiply.outer(self._mlam, cfg.dw).ravel()
-        cfg.P2 = np.multiply.outer(self._lam2, cfg.om2c).ravel()
+        if not self.compiled:                           # (the kernels form it themselves)
+            cfg.P1 = np.multiply.outer(self._mlam, cfg.dw).ravel()
+            cfg.P2 = np.multiply.outer(self._lam2, cfg.om2c).ravel()
         return cfg
 
     def _make_rows(self, held):
@@ -537,6 +472,12 @@ class SoftIntegrator(Integrator):
     # --------------------------------------------------------------- violations
     def _violation(self, t, w, z, mode, cfg, with_rate=True):
         """Violation v (crossing when v turns > 0) and its rate for every node."""
+        if self.compiled:
+            v, dv = np.empty(self.n), np.empty(self.n)
+            self._kernels.violation(float(t), w, z, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.sgn, cfg.hidx,
+                                    cfg.him, cfg.hip, cfg.hLd, cfg.hLl, cfg.hLu, 1.0 / self.Gamma, with_rate,
+                                    v, dv)
+            return (v, dv) if with_rate else v
         v = z * cfg.sgn
         hi = cfg.hidx
         if hi.size:

@@ -162,15 +162,49 @@ def radau_step(t0, h, w0, z0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, 
     """
     n = w0.size
     m = lam.size
-    s = c.size
-    g = np.empty(s)
-    for r in range(s):
-        g[r] = math.sin(t0 + h * c[r])
     Z = np.empty((m, n), np.complex128)
     d = np.empty((m, n), np.complex128)
     dl = np.empty((m, max(n - 1, 0)), np.complex128)
     du = np.empty((m, max(n - 1, 0)), np.complex128)
     mus = np.empty(m, np.complex128)
+    _assemble(t0, h, w0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, c, Z, d, dl, du, mus)
+    if not tridiagonal_solve(dl, d, du, Z):
+        return False
+    _stage_values(h, w0, z0, Z, mus, Trep, cT, dense, stages, w1, z1, Yw, Yz, Zg)
+    return True
+
+
+@kernel
+def radau_pair(t0, h, hh, w0, z0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, Trep, c, cT, dense,
+               w1, z1, wa, za, Ywa, Yza, Zga):
+    """Two :func:`radau_step` from the same start: ``h`` (end point only) and ``hh`` (with stages), one solve."""
+    n = w0.size
+    m = lam.size
+    Z = np.empty((2 * m, n), np.complex128)
+    d = np.empty((2 * m, n), np.complex128)
+    dl = np.empty((2 * m, max(n - 1, 0)), np.complex128)
+    du = np.empty((2 * m, max(n - 1, 0)), np.complex128)
+    mus = np.empty(2 * m, np.complex128)
+    _assemble(t0, h, w0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, c, Z[:m], d[:m], dl[:m], du[:m],
+              mus[:m])
+    _assemble(t0, hh, w0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, c, Z[m:], d[m:], dl[m:], du[m:],
+              mus[m:])
+    if not tridiagonal_solve(dl, d, du, Z):
+        return False
+    _stage_values(h, w0, z0, Z[:m], mus[:m], Trep, cT, dense, False, w1, z1, Ywa, Yza, Zga)
+    _stage_values(hh, w0, z0, Z[m:], mus[m:], Trep, cT, dense, True, wa, za, Ywa, Yza, Zga)
+    return True
+
+
+@kernel
+def _assemble(t0, h, w0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, c, Z, d, dl, du, mus):
+    """The m stage systems of a step of size h: right-hand sides ``Z``, matrices ``dl, d, du``, ``mus = h lam``."""
+    n = w0.size
+    m = lam.size
+    s = c.size
+    g = np.empty(s)
+    for r in range(s):
+        g[r] = math.sin(t0 + h * c[r])
     for k in range(m):
         mu = h * lam[k]
         mus[k] = mu
@@ -181,14 +215,23 @@ def radau_step(t0, h, w0, z0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, 
         a2 = mu * (acc - q[k] * inv_gamma)
         a3 = -mu * a1
         mu2 = mu * mu
+        # complex times real written out (numba would promote the real factor to complex)
+        a1r, a1i, a2r, a2i, a3r, a3i = a1.real, a1.imag, a2.real, a2.imag, a3.real, a3.imag
+        mur, mui, m2r, m2i = mu.real, mu.imag, mu2.real, mu2.imag
         for i in range(n):
-            Z[k, i] = a1 * aw[i] + a2 * f[i] + a3 * (om2c[i] * w0[i])
-            d[k, i] = 1.0 - mu * dw[i] + mu2 * om2c[i]
+            x = om2c[i] * w0[i]
+            Z[k, i] = complex(a1r * aw[i] + a2r * f[i] + a3r * x, a1i * aw[i] + a2i * f[i] + a3i * x)
+            d[k, i] = complex(1.0 - mur * dw[i] + m2r * om2c[i], -mui * dw[i] + m2i * om2c[i])
         for i in range(n - 1):
-            dl[k, i] = -mu * Ll[i]
-            du[k, i] = -mu * Lu[i]
-    if not tridiagonal_solve(dl, d, du, Z):
-        return False
+            dl[k, i] = complex(-mur * Ll[i], -mui * Ll[i])
+            du[k, i] = complex(-mur * Lu[i], -mui * Lu[i])
+
+
+@kernel
+def _stage_values(h, w0, z0, Z, mus, Trep, cT, dense, stages, w1, z1, Yw, Yz, Zg):
+    """End point (and with ``stages`` the stage values and the zeta grid) from the solved stage systems."""
+    m, n = Z.shape
+    s = cT.size
     Zr = np.empty((m, n))
     Zi = np.empty((m, n))
     for k in range(m):
@@ -214,7 +257,7 @@ def radau_step(t0, h, w0, z0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, 
             ur[i] += w0[i]
             uz[i] += hc * w0[i] + z0[i]
     if not stages:
-        return True
+        return
     G = dense.shape[0]
     for gi in range(G - 1):
         zg = Zg[gi]
@@ -230,7 +273,6 @@ def radau_step(t0, h, w0, z0, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, 
         Zg[G - 1, i] = Yz[s - 1, i]                 # theta = 1 is the last stage, exactly
         w1[i] = Yw[s - 1, i]
         z1[i] = Yz[s - 1, i]
-    return True
 
 
 @kernel
@@ -408,7 +450,6 @@ def march(t, t_target, h_ctl, max_step, w, z, dw, om2c, f, Ll, Lu, sgn, held, hi
     hv = np.empty(hidx.size)
     kk = np.empty(n, np.int64)
     awayf = np.zeros(n, np.bool_)
-    dummy = np.empty((0, 0))
     n_steps = 0
     n_rej = 0
     while True:
@@ -420,10 +461,8 @@ def march(t, t_target, h_ctl, max_step, w, z, dw, om2c, f, Ll, Lu, sgn, held, hi
         t_mid = t + 0.5 * h
         hh = t_mid - t
         h2 = t_new - t_mid
-        ok = radau_step(t, h, w, z, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, Trep, c, cT, dense,
-                        False, w1, z1, dummy, dummy, dummy)
-        ok = ok and radau_step(t, hh, w, z, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, Trep, c, cT,
-                               dense, True, wa, za, Ywa, Yza, Zga)
+        ok = radau_pair(t, h, hh, w, z, aw, dw, om2c, f, Ll, Lu, inv_gamma, lam, q, Tinv, Trep, c, cT, dense,
+                        w1, z1, wa, za, Ywa, Yza, Zga)
         n_steps += 2
         if not ok:
             return SINGULAR, t, h_ctl, 0, n_steps, n_rej
@@ -546,6 +585,38 @@ def march(t, t_target, h_ctl, max_step, w, z, dw, om2c, f, Ll, Lu, sgn, held, hi
             z[i] = zb[i]
         if t >= t_target:
             return REACHED, t, h_ctl, 0, n_steps, n_rej
+
+
+@kernel
+def violation(t, w, z, dw, om2c, f, Ll, Lu, sgn, hidx, him, hip, hLd, hLl, hLu, inv_gamma, with_rate, v, dv):
+    """:meth:`SoftIntegrator._violation` into ``v`` (and its rate into ``dv`` if ``with_rate``)."""
+    n = w.size
+    for i in range(n):
+        v[i] = z[i] * sgn[i]
+    nh = hidx.size
+    a = np.empty(nh)
+    gt = math.sin(t) - inv_gamma
+    if nh:
+        _held_rows(w, hidx, him, hip, hLd, hLl, hLu, a)
+        for k in range(nh):
+            v[hidx[k]] = a[k] + gt
+    if not with_rate:
+        return
+    for i in range(n):
+        dv[i] = w[i] * sgn[i]
+    if nh:
+        r = np.empty(n)
+        for i in range(n):
+            x = dw[i] * w[i] - om2c[i] * z[i] + gt * f[i]
+            if i > 0:
+                x += Ll[i - 1] * w[i - 1]
+            if i < n - 1:
+                x += Lu[i] * w[i + 1]
+            r[i] = x
+        _held_rows(r, hidx, him, hip, hLd, hLl, hLu, a)
+        ct = math.cos(t)
+        for k in range(nh):
+            dv[hidx[k]] = a[k] + ct
 
 
 @kernel
