@@ -323,6 +323,13 @@ class SoftIntegrator(Integrator):
         return cfg
 
     def _make_config(self, mode):
+        if self.compiled:                               # the attributes the compiled path reads, in one call
+            cfg = _Config()
+            (cfg.dw, cfg.om2c, cfg.f, cfg.sgn, cfg.rows_ok, cfg.Ll, cfg.Lu, cfg.held, cfg.hidx, cfg.him, cfg.hip,
+             cfg.hLd, cfg.hLl, cfg.hLu) = self._kernels.configure(mode, self._Ld, self._Ll, self._Lu,
+                                                                  2.0 * self.beta, self.omega0_sq)
+            cfg.dz = -cfg.om2c
+            return cfg
         held = mode == _HELD
         key = held.tobytes()
         rows = self._rows_cache.get(key)
@@ -918,6 +925,12 @@ class SoftIntegrator(Integrator):
         Returns (nodes, early, dt): ``early`` >= 0 is a node that crossed more than time_tol before
         te (the earliest such, ``dt`` before te), else -1.
         """
+        if self.compiled:
+            nodes = np.empty(self.n, np.int64)
+            count, early, dt = self._kernels.simultaneous(
+                te, we, ze, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.sgn, cfg.hidx, cfg.him, cfg.hip, cfg.hLd,
+                cfg.hLl, cfg.hLu, 1.0 / self.Gamma, int(j), self.time_tol, nodes)
+            return (None, early, dt) if early >= 0 else (nodes[:count], -1, 0.0)
         v, dv = self._violation(te, we, ze, mode, cfg)
         thr = self.time_tol * dv                   # |te - t_cross| <= time_tol  <=>  |v| <= thr (dv > 0)
         early = v > np.maximum(thr, 0.0)           # crossed more than time_tol before te

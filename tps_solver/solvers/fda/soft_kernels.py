@@ -620,6 +620,94 @@ def violation(t, w, z, dw, om2c, f, Ll, Lu, sgn, hidx, him, hip, hLd, hLl, hLu, 
 
 
 @kernel
+def simultaneous(te, we, ze, dw, om2c, f, Ll, Lu, sgn, hidx, him, hip, hLd, hLl, hLu, inv_gamma, j, time_tol,
+                 nodes):
+    """:meth:`SoftIntegrator._simultaneous`: the nodes switching with node j at ``te``.
+
+    Returns
+    -------
+    count : int
+        Nodes switching at ``te`` (written to ``nodes[:count]``); 0 when a node crossed earlier.
+    early : int
+        The earliest node that crossed more than ``time_tol`` before ``te``, else -1.
+    dt : float
+        How long before ``te`` it crossed.
+    """
+    n = we.size
+    v = np.empty(n)
+    dv = np.empty(n)
+    violation(te, we, ze, dw, om2c, f, Ll, Lu, sgn, hidx, him, hip, hLd, hLl, hLu, inv_gamma, True, v, dv)
+    early = -1
+    best = -math.inf
+    for i in range(n):
+        thr = time_tol * dv[i]
+        if i != j and v[i] > max(thr, 0.0) and not (dv[i] < 0.0 and v[i] <= -2.0 * thr):
+            dt = v[i] / dv[i] if dv[i] > 0.0 else math.inf          # te - t_cross
+            if early < 0 or dt > best:
+                early = i
+                best = dt
+    if early >= 0:
+        return 0, early, (best if math.isfinite(best) else 0.0)
+    count = 0
+    for i in range(n):
+        if i == j or (abs(v[i]) <= time_tol * dv[i] and dv[i] > 0.0):
+            nodes[count] = i
+            count += 1
+    return count, -1, 0.0
+
+
+@kernel
+def configure(mode, Ld, Ll_full, Lu_full, two_beta, omega0_sq):
+    """:meth:`SoftIntegrator._make_config` (mode 0 free, 1 soft contact, 2 held) in one pass.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``dw, om2c, f, sgn, rows_ok, Ll, Lu, held, hidx, him, hip, hLd, hLl, hLu``.
+    """
+    n = mode.size
+    dw = np.empty(n)
+    om2c = np.empty(n)
+    f = np.empty(n)
+    sgn = np.empty(n)
+    rows_ok = np.empty(n)
+    held = np.empty(n, np.bool_)
+    nh = 0
+    for i in range(n):
+        mi = mode[i]
+        c = 1.0 if mi == 1 else 0.0
+        held[i] = mi == 2
+        nh += mi == 2
+        f[i] = 1.0 if mi == 0 else 0.0
+        sgn[i] = -1.0 if mi == 0 else 1.0
+        rows_ok[i] = 0.0 if mi == 2 else 1.0
+        om2c[i] = omega0_sq * c
+        dw[i] = Ld[i] * rows_ok[i] - two_beta * c
+    Ll = np.empty(max(n - 1, 0))
+    Lu = np.empty(max(n - 1, 0))
+    for i in range(n - 1):
+        Ll[i] = Ll_full[i] * rows_ok[i + 1]
+        Lu[i] = Lu_full[i] * rows_ok[i]
+    hidx = np.empty(nh, np.int64)
+    him = np.empty(nh, np.int64)
+    hip = np.empty(nh, np.int64)
+    hLd = np.empty(nh)
+    hLl = np.empty(nh)
+    hLu = np.empty(nh)
+    k = 0
+    for i in range(n):
+        if held[i]:
+            hidx[k] = i
+            him[k] = max(i - 1, 0)
+            hip[k] = min(i + 1, n - 1)
+            hLd[k] = Ld[i]
+            hLl[k] = Ll_full[i - 1] if i > 0 else 0.0
+            hLu[k] = Lu_full[i] if i < n - 1 else 0.0
+            k += 1
+    return dw, om2c, f, sgn, rows_ok, Ll, Lu, held, hidx, him, hip, hLd, hLl, hLu
+
+
+@kernel
 def _violation_at(j, t, w, z, dw, om2c, f, Ll, Lu, sgn, rows_ok, Ld_j, Ll_j, Lu_j, inv_gamma):
     """:meth:`SoftIntegrator._violation_at`: violation of node j and its rate."""
     n = w.size
