@@ -13,12 +13,16 @@ kernels do the same arithmetic in loops:
   or to the first accepted step whose scan grid shows a crossing, with the crossing nodes, their
   polished guesses (Newton on the collocation polynomial) and brackets;
 * :func:`locate` -- the safeguarded Newton iteration in the step size of
-  :meth:`SoftIntegrator._locate`.
+  :meth:`SoftIntegrator._locate`;
+* :func:`configure`, :func:`violation`, :func:`simultaneous` -- the constants of a contact
+  configuration, the violations of all nodes and the nodes switching together.
 
 The rules (error control, scan, sliver of nodes moving away, polish) are those of the numpy path,
 step by step; only the order of floating-point operations differs (sums in loops instead of BLAS
-products), so the two paths agree to rounding.  The event bookkeeping (simultaneous switches, the
-sticking rule, event records) stays in :mod:`~tps_solver.solvers.fda.soft`.
+products, a reciprocal instead of a complex division in the tridiagonal solve), so the two paths agree
+to rounding (event times to 1e-12 where the dynamics does not amplify rounding: tests/test_soft_kernels.py).
+The event bookkeeping (the sticking rule, event records, the event bound) stays in
+:mod:`~tps_solver.solvers.fda.soft`.
 
 Compiled with numba when the ``fast`` extra is installed (:mod:`tps_solver.core.jit`); the
 integrator uses them by default then (option ``compiled``).
@@ -29,7 +33,8 @@ import numpy as np
 
 from tps_solver.core.jit import kernel
 
-__all__ = ["tridiagonal_solve", "radau_step", "march", "locate",
+__all__ = ["tridiagonal_solve", "start_rhs", "radau_step", "radau_pair", "march", "locate", "violation",
+           "simultaneous", "configure",
            "REACHED", "CROSSING", "NONFINITE", "UNDERFLOW", "SINGULAR", "UNVERIFIED", "STALLED"]
 
 #: Status codes of :func:`march` and :func:`locate`.
@@ -76,17 +81,22 @@ def tridiagonal_solve(dl, d, du, b):
     (True, [[1.0, 1.0, 1.0]])
     """
     m, n = d.shape
+    rp = np.empty((m, n), np.complex128)            # reciprocals of the pivots (reused going back)
     for i in range(n - 1):
         for k in range(m):
             if _cabs1(d[k, i]) >= _cabs1(dl[k, i]):          # no row interchange
                 if d[k, i] == 0.0:
                     return False
-                fact = dl[k, i] * _inv(d[k, i])
+                r = _inv(d[k, i])
+                rp[k, i] = r
+                fact = dl[k, i] * r
                 d[k, i + 1] -= fact * du[k, i]
                 b[k, i + 1] -= fact * b[k, i]
                 dl[k, i] = 0.0                       # dl now holds the second super-diagonal
             else:                                    # interchange rows i and i + 1
-                fact = d[k, i] * _inv(dl[k, i])
+                r = _inv(dl[k, i])
+                rp[k, i] = r
+                fact = d[k, i] * r
                 d[k, i] = dl[k, i]
                 temp = d[k, i + 1]
                 d[k, i + 1] = du[k, i] - fact * temp
@@ -104,10 +114,10 @@ def tridiagonal_solve(dl, d, du, b):
             return False
         b[k, n - 1] *= _inv(d[k, n - 1])
         if n > 1:
-            b[k, n - 2] = (b[k, n - 2] - du[k, n - 2] * b[k, n - 1]) * _inv(d[k, n - 2])
+            b[k, n - 2] = (b[k, n - 2] - du[k, n - 2] * b[k, n - 1]) * rp[k, n - 2]
     for i in range(n - 3, -1, -1):
         for k in range(m):
-            b[k, i] = (b[k, i] - du[k, i] * b[k, i + 1] - dl[k, i] * b[k, i + 2]) * _inv(d[k, i])
+            b[k, i] = (b[k, i] - du[k, i] * b[k, i + 1] - dl[k, i] * b[k, i + 2]) * rp[k, i]
     return True
 
 
