@@ -325,9 +325,12 @@ class SoftIntegrator(Integrator):
     def _make_config(self, mode):
         if self.compiled:                               # the attributes the compiled path reads, in one call
             cfg = _Config()
-            (cfg.dw, cfg.om2c, cfg.f, cfg.sgn, cfg.rows_ok, cfg.Ll, cfg.Lu, cfg.held, cfg.hidx, cfg.him, cfg.hip,
-             cfg.hLd, cfg.hLl, cfg.hLu) = self._kernels.configure(mode, self._Ld, self._Ll, self._Lu,
-                                                                  2.0 * self.beta, self.omega0_sq)
+            F, cfg.held, H, HL = self._kernels.configure(mode, self._Ld, self._Ll, self._Lu, 2.0 * self.beta,
+                                                         self.omega0_sq)
+            cfg.dw, cfg.om2c, cfg.f, cfg.sgn, cfg.rows_ok = F[:5]
+            cfg.Ll, cfg.Lu = F[5, :-1], F[6, :-1]
+            cfg.hidx, cfg.him, cfg.hip = H
+            cfg.hLd, cfg.hLl, cfg.hLu = HL
             cfg.dz = -cfg.om2c
             return cfg
         held = mode == _HELD
@@ -372,6 +375,9 @@ class SoftIntegrator(Integrator):
                     hLu=np.concatenate((self._Lu, [0.0]))[hidx])
 
     def _rhs(self, t, w, z, cfg):
+        if self.compiled:
+            return self._kernels.rhs(float(t), w, z, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.rows_ok,
+                                     1.0 / self.Gamma)
         dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
         dw[1:] += cfg.Ll * w[:-1]
         dw[:-1] += cfg.Lu * w[1:]
@@ -529,6 +535,8 @@ class SoftIntegrator(Integrator):
     # ------------------------------------------------------------------ driver API
     def _initial_mode(self, w, z, stuck):
         stuck = np.zeros(self.n, bool) if stuck is None else np.asarray(stuck, bool)
+        if self.compiled:
+            return self._kernels.initial_mode(stuck, w, z)
         mode = np.where(stuck, _CONTACT, _FREE)
         mode[stuck & (w == 0.0) & (z == 0.0)] = _HELD
         return mode

@@ -34,7 +34,7 @@ import numpy as np
 from tps_solver.core.jit import kernel
 
 __all__ = ["tridiagonal_solve", "start_rhs", "radau_step", "radau_pair", "march", "locate", "violation",
-           "simultaneous", "configure",
+           "simultaneous", "configure", "rhs", "initial_mode",
            "REACHED", "CROSSING", "NONFINITE", "UNDERFLOW", "SINGULAR", "UNVERIFIED", "STALLED"]
 
 #: Status codes of :func:`march` and :func:`locate`.
@@ -672,15 +672,18 @@ def configure(mode, Ld, Ll_full, Lu_full, two_beta, omega0_sq):
 
     Returns
     -------
-    tuple of ndarray
-        ``dw, om2c, f, sgn, rows_ok, Ll, Lu, held, hidx, him, hip, hLd, hLl, hLu``.
+    F : ndarray of float, shape (7, n)
+        Rows ``dw, om2c, f, sgn, rows_ok`` and the off-diagonals ``Ll, Lu`` (first n - 1 entries).
+    held : ndarray of bool, shape (n,)
+    H : ndarray of int, shape (3, n_held)
+        Held nodes and their left and right neighbours (clamped to the ends).
+    HL : ndarray of float, shape (3, n_held)
+        Their rows of the full operator: diagonal, left and right entries (0 beyond the ends).
+
+    Few arrays are returned: each returned array costs a conversion to a Python object.
     """
     n = mode.size
-    dw = np.empty(n)
-    om2c = np.empty(n)
-    f = np.empty(n)
-    sgn = np.empty(n)
-    rows_ok = np.empty(n)
+    F = np.zeros((7, n))
     held = np.empty(n, np.bool_)
     nh = 0
     for i in range(n):
@@ -688,33 +691,54 @@ def configure(mode, Ld, Ll_full, Lu_full, two_beta, omega0_sq):
         c = 1.0 if mi == 1 else 0.0
         held[i] = mi == 2
         nh += mi == 2
-        f[i] = 1.0 if mi == 0 else 0.0
-        sgn[i] = -1.0 if mi == 0 else 1.0
-        rows_ok[i] = 0.0 if mi == 2 else 1.0
-        om2c[i] = omega0_sq * c
-        dw[i] = Ld[i] * rows_ok[i] - two_beta * c
-    Ll = np.empty(max(n - 1, 0))
-    Lu = np.empty(max(n - 1, 0))
+        F[2, i] = 1.0 if mi == 0 else 0.0
+        F[3, i] = -1.0 if mi == 0 else 1.0
+        F[4, i] = 0.0 if mi == 2 else 1.0
+        F[1, i] = omega0_sq * c
+        F[0, i] = Ld[i] * F[4, i] - two_beta * c
     for i in range(n - 1):
-        Ll[i] = Ll_full[i] * rows_ok[i + 1]
-        Lu[i] = Lu_full[i] * rows_ok[i]
-    hidx = np.empty(nh, np.int64)
-    him = np.empty(nh, np.int64)
-    hip = np.empty(nh, np.int64)
-    hLd = np.empty(nh)
-    hLl = np.empty(nh)
-    hLu = np.empty(nh)
+        F[5, i] = Ll_full[i] * F[4, i + 1]
+        F[6, i] = Lu_full[i] * F[4, i]
+    H = np.empty((3, nh), np.int64)
+    HL = np.empty((3, nh))
     k = 0
     for i in range(n):
         if held[i]:
-            hidx[k] = i
-            him[k] = max(i - 1, 0)
-            hip[k] = min(i + 1, n - 1)
-            hLd[k] = Ld[i]
-            hLl[k] = Ll_full[i - 1] if i > 0 else 0.0
-            hLu[k] = Lu_full[i] if i < n - 1 else 0.0
+            H[0, k] = i
+            H[1, k] = max(i - 1, 0)
+            H[2, k] = min(i + 1, n - 1)
+            HL[0, k] = Ld[i]
+            HL[1, k] = Ll_full[i - 1] if i > 0 else 0.0
+            HL[2, k] = Lu_full[i] if i < n - 1 else 0.0
             k += 1
-    return dw, om2c, f, sgn, rows_ok, Ll, Lu, held, hidx, him, hip, hLd, hLl, hLu
+    return F, held, H, HL
+
+
+@kernel
+def rhs(t, w, z, dw, om2c, f, Ll, Lu, rows_ok, inv_gamma):
+    """:meth:`SoftIntegrator._rhs`: the right-hand side (dw/dt, dzeta/dt), shape (2, n)."""
+    n = w.size
+    out = np.empty((2, n))
+    gt = math.sin(t) - inv_gamma
+    for i in range(n):
+        x = dw[i] * w[i] - om2c[i] * z[i] + gt * f[i]
+        if i > 0:
+            x += Ll[i - 1] * w[i - 1]
+        if i < n - 1:
+            x += Lu[i] * w[i + 1]
+        out[0, i] = x
+        out[1, i] = w[i] * rows_ok[i]
+    return out
+
+
+@kernel
+def initial_mode(stuck, w, z):
+    """:meth:`SoftIntegrator._initial_mode`: 0 free, 1 in soft contact, 2 held (in contact at w = zeta = 0)."""
+    n = w.size
+    mode = np.empty(n, np.int64)
+    for i in range(n):
+        mode[i] = (2 if w[i] == 0.0 and z[i] == 0.0 else 1) if stuck[i] else 0
+    return mode
 
 
 @kernel
