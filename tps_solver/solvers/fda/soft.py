@@ -305,13 +305,6 @@ class SoftIntegrator(Integrator):
             self._kLu = np.concatenate((self._Lu, [0.0]))
 
     # ------------------------------------------------------------ linear algebra
-    def _Lmul(self, u):
-        """Full :math:`\\underline L u` for u of shape (..., n) (the free acceleration of held nodes)."""
-        out = self._Ld * u
-        out[..., 1:] += self._Ll * u[..., :-1]
-        out[..., :-1] += self._Lu * u[..., 1:]
-        return out
-
     def _config(self, mode):
         """Per-configuration constants (mode: 0 free, 1 soft contact, 2 held), cached."""
         key = mode.tobytes()
@@ -332,6 +325,7 @@ class SoftIntegrator(Integrator):
             cfg.hidx, cfg.him, cfg.hip = H
             cfg.hLd, cfg.hLl, cfg.hLu = HL
             cfg.dz = -cfg.om2c
+            cfg.F, cfg.H, cfg.HL = F, H, HL
             return cfg
         held = mode == _HELD
         key = held.tobytes()
@@ -376,8 +370,7 @@ class SoftIntegrator(Integrator):
 
     def _rhs(self, t, w, z, cfg):
         if self.compiled:
-            return self._kernels.rhs(float(t), w, z, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.rows_ok,
-                                     1.0 / self.Gamma)
+            return self._kernels.rhs_packed(float(t), w, z, cfg.F, 1.0 / self.Gamma)
         dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
         dw[1:] += cfg.Ll * w[:-1]
         dw[:-1] += cfg.Lu * w[1:]
@@ -486,10 +479,8 @@ class SoftIntegrator(Integrator):
     def _violation(self, t, w, z, mode, cfg, with_rate=True):
         """Violation v (crossing when v turns > 0) and its rate for every node."""
         if self.compiled:
-            v, dv = np.empty(self.n), np.empty(self.n)
-            self._kernels.violation(float(t), w, z, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.sgn, cfg.hidx,
-                                    cfg.him, cfg.hip, cfg.hLd, cfg.hLl, cfg.hLu, 1.0 / self.Gamma, with_rate,
-                                    v, dv)
+            v, dv = self._kernels.violation_packed(float(t), w, z, cfg.F, cfg.H, cfg.HL, 1.0 / self.Gamma,
+                                                   with_rate)
             return (v, dv) if with_rate else v
         v = z * cfg.sgn
         hi = cfg.hidx
@@ -568,12 +559,23 @@ class SoftIntegrator(Integrator):
     def _switch(self, t, w, z, mode, enter, leave, release, events):
         """Apply the switches at time t in place, with the sticking rule; append event records."""
         vs = self.stick_speed
-        a = None
-        if vs > 0.0 and (enter.size or leave.size):
-            a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
+        # free accelerations (L w)_j + g(t) of the slow switching nodes, from the state before any capture
+        # (rows of the full operator)
+        a = {}
+        if vs > 0.0:
+            g = math.sin(t) - 1.0 / self.Gamma
+            n = self.n
+            for j in list(enter) + list(leave):
+                if abs(w[j]) <= vs:
+                    x = self._Ld[j] * w[j]
+                    if j > 0:
+                        x += self._Ll[j - 1] * w[j - 1]
+                    if j < n - 1:
+                        x += self._Lu[j] * w[j + 1]
+                    a[j] = x + g
         for j in enter:
             wb = float(w[j])
-            if a is not None and abs(wb) <= vs and a[j] <= 0.0:
+            if j in a and a[j] <= 0.0:
                 mode[j] = _HELD
                 w[j] = z[j] = 0.0
                 events.append((t, int(j), "stick", wb))
@@ -582,7 +584,7 @@ class SoftIntegrator(Integrator):
                 events.append((t, int(j), "impact", wb))
         for j in leave:
             wb = float(w[j])
-            if a is not None and abs(wb) <= vs and a[j] <= 0.0:
+            if j in a and a[j] <= 0.0:
                 mode[j] = _HELD
                 w[j] = z[j] = 0.0
                 events.append((t, int(j), "stick", wb))
@@ -755,11 +757,10 @@ class SoftIntegrator(Integrator):
         kn = self._kernels
         n = self.n
         xnodes, xguess, xtop, xstate = np.empty(n, np.int64), np.empty(n), np.empty(n), np.empty(2)
-        status, t, self._h, count, steps, rejected = kn.march(
-            t, t_target, self._h, self.max_step, w, z, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.sgn,
-            cfg.held, cfg.hidx, cfg.him, cfg.hip, cfg.hLd, cfg.hLl, cfg.hLu, 1.0 / self.Gamma, self.rtol,
-            self.atol, self._order, self.time_tol, *self._keig, self._theta, self._vinv,
-            xnodes, xguess, xtop, xstate)
+        status, t, self._h, count, steps, rejected = kn.march_packed(
+            t, t_target, self._h, self.max_step, w, z, cfg.F, cfg.held, cfg.H, cfg.HL, 1.0 / self.Gamma, self.rtol,
+            self.atol, self._order, self.time_tol, *self._keig, self._theta, self._vinv, xnodes, xguess, xtop,
+            xstate)
         self.n_steps += steps
         self.n_rejected += rejected
         if status == kn.NONFINITE:
@@ -840,10 +841,9 @@ class SoftIntegrator(Integrator):
         if self.compiled:
             kn = self._kernels
             we, ze = np.empty(self.n), np.empty(self.n)
-            status, hk, steps = kn.locate(
-                t0, w0, z0, int(j), float(guess), float(h_hi), bool(verified), float(h_lo), cfg.dw, cfg.om2c,
-                cfg.f, cfg.Ll, cfg.Lu, cfg.sgn, cfg.rows_ok, self._Ld[j], self._kLl[j], self._kLu[j],
-                1.0 / self.Gamma, *self._keig, we, ze)
+            status, hk, steps = kn.locate_packed(
+                t0, w0, z0, int(j), float(guess), float(h_hi), bool(verified), float(h_lo), cfg.F, self._Ld[j],
+                self._kLl[j], self._kLu[j], 1.0 / self.Gamma, *self._keig, we, ze)
             self.n_steps += steps
             if status == 0:
                 return hk, we, ze
@@ -934,11 +934,9 @@ class SoftIntegrator(Integrator):
         te (the earliest such, ``dt`` before te), else -1.
         """
         if self.compiled:
-            nodes = np.empty(self.n, np.int64)
-            count, early, dt = self._kernels.simultaneous(
-                te, we, ze, cfg.dw, cfg.om2c, cfg.f, cfg.Ll, cfg.Lu, cfg.sgn, cfg.hidx, cfg.him, cfg.hip, cfg.hLd,
-                cfg.hLl, cfg.hLu, 1.0 / self.Gamma, int(j), self.time_tol, nodes)
-            return (None, early, dt) if early >= 0 else (nodes[:count], -1, 0.0)
+            nodes, early, dt = self._kernels.simultaneous_packed(te, we, ze, cfg.F, cfg.H, cfg.HL, 1.0 / self.Gamma,
+                                                                 int(j), self.time_tol)
+            return (None, early, dt) if early >= 0 else (nodes, -1, 0.0)
         v, dv = self._violation(te, we, ze, mode, cfg)
         thr = self.time_tol * dv                   # |te - t_cross| <= time_tol  <=>  |v| <= thr (dv > 0)
         early = v > np.maximum(thr, 0.0)           # crossed more than time_tol before te

@@ -34,7 +34,8 @@ import numpy as np
 from tps_solver.core.jit import kernel
 
 __all__ = ["tridiagonal_solve", "start_rhs", "radau_step", "radau_pair", "march", "locate", "violation",
-           "simultaneous", "configure", "rhs", "initial_mode",
+           "simultaneous", "configure", "rhs", "initial_mode", "march_packed", "locate_packed",
+           "violation_packed", "simultaneous_packed", "rhs_packed",
            "REACHED", "CROSSING", "NONFINITE", "UNDERFLOW", "SINGULAR", "UNVERIFIED", "STALLED"]
 
 #: Status codes of :func:`march` and :func:`locate`.
@@ -846,3 +847,51 @@ def locate(t0, w0, z0, j, guess, h_hi, verified, h_lo, dw, om2c, f, Ll, Lu, sgn,
             hn = 0.5 * (lo + hi)
         hk = hn
     return STALLED, hk, n_steps
+
+
+# ----------------------------------------------------------------------------- packed entry points
+# A kernel call converts every array argument (about 0.4 us each): these take the configuration as
+# the three arrays of :func:`configure` (``F``, ``H``, ``HL``) and unpack it inside.
+
+@kernel
+def march_packed(t, t_target, h_ctl, max_step, w, z, F, held, H, HL, inv_gamma, rtol, atol, order, time_tol,
+                 lam, q, Tinv, Trep, c, cT, dense, theta, vinv, xnodes, xguess, xtop, xstate):
+    """:func:`march` with the configuration packed as :func:`configure` returns it."""
+    return march(t, t_target, h_ctl, max_step, w, z, F[0], F[1], F[2], F[5], F[6], F[3], held, H[0], H[1], H[2],
+                 HL[0], HL[1], HL[2], inv_gamma, rtol, atol, order, time_tol, lam, q, Tinv, Trep, c, cT, dense,
+                 theta, vinv, xnodes, xguess, xtop, xstate)
+
+
+@kernel
+def locate_packed(t0, w0, z0, j, guess, h_hi, verified, h_lo, F, Ld_j, Ll_j, Lu_j, inv_gamma, lam, q, Tinv,
+                  Trep, c, cT, dense, we, ze):
+    """:func:`locate` with the configuration packed as :func:`configure` returns it."""
+    return locate(t0, w0, z0, j, guess, h_hi, verified, h_lo, F[0], F[1], F[2], F[5], F[6], F[3], F[4], Ld_j,
+                  Ll_j, Lu_j, inv_gamma, lam, q, Tinv, Trep, c, cT, dense, we, ze)
+
+
+@kernel
+def violation_packed(t, w, z, F, H, HL, inv_gamma, with_rate):
+    """:func:`violation` with the configuration packed; returns ``(v, dv)`` (``dv`` unset without rate)."""
+    n = w.size
+    v = np.empty(n)
+    dv = np.empty(n)
+    violation(t, w, z, F[0], F[1], F[2], F[5], F[6], F[3], H[0], H[1], H[2], HL[0], HL[1], HL[2], inv_gamma,
+              with_rate, v, dv)
+    return v, dv
+
+
+@kernel
+def simultaneous_packed(te, we, ze, F, H, HL, inv_gamma, j, time_tol):
+    """:func:`simultaneous` with the configuration packed; returns ``(nodes, early, dt)``."""
+    nodes = np.empty(we.size, np.int64)
+    count, early, dt = simultaneous(te, we, ze, F[0], F[1], F[2], F[5], F[6], F[3], H[0], H[1], H[2], HL[0],
+                                    HL[1], HL[2], inv_gamma, j, time_tol, nodes)
+    return nodes[:count], early, dt
+
+
+@kernel
+def rhs_packed(t, w, z, F, inv_gamma):
+    """:func:`rhs` with the configuration packed."""
+    return rhs(t, w, z, F[0], F[1], F[2], F[5], F[6], F[4], inv_gamma)
+
