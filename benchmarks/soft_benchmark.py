@@ -15,6 +15,14 @@ Measured, side by side in one run:
   the output times, and the ratio of the run times;
 * the 481-node kink (dx = 0.1, cutoff 0.3, 2 periods by default): seconds per period, steps and
   events (and, with ``--baseline``, the same for the other version and the CPU-time ratio).
+
+``--paths`` instead prints one table (:func:`paths_table`): the numpy path (``compiled=False``), the
+compiled path (``compiled=True``, :mod:`tps_solver.solvers.fda.soft_kernels`) and the Radau reference
+(``method="soft-radau"``, its default tolerances rtol 1e-10, atol 1e-12) side by side, CPU seconds per
+period (min of ``--repeat`` runs, one BLAS thread) on the 101-node flat Neumann lattice (dx 0.5,
+heights perturbed by 1e-6 (x/L)^2) and the 481-node pinned kink (Radau there only with
+``--radau-kink``: minutes), with the two paths' largest event-time difference and the compiled
+path's final-state difference from Radau.
 """
 import argparse
 import importlib.util
@@ -23,7 +31,7 @@ import time
 import numpy as np
 
 import tps_solver as tps
-from tps_solver.solvers.fda import kink_state
+from tps_solver.solvers.fda import flat_state, kink_state
 from tps_solver.solvers.fda import simulate
 from tps_solver.model.soft_flat import SoftFlatOrbit
 from tps_solver.solvers.fda.soft import SoftIntegrator
@@ -176,6 +184,80 @@ def big_kink(n_nodes=481, dx=0.1, periods=1, integrator=SoftIntegrator, **option
                 sticks=kinds.count("stick"), w=wf, zeta=zf, event_times=np.array([ev[0] for ev in events]))
 
 
+def _perturbed_flat_case(n_nodes=101, dx=0.5, pert=1e-6):
+    """The 101-node perturbed flat lattice (Neumann) of the compiled-path table: lattice, t0, w, zeta, period."""
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=dx * (n_nodes - 1))
+    t0 = fl.t0 + 1e-6
+    w, z = flat_state(lat, fl, t0)
+    return lat, t0, w, z + pert * np.linspace(0.0, 1.0, n_nodes) ** 2, fl.period
+
+
+def _big_kink_case(n_nodes=481, dx=0.1):
+    fl = tps.FlatLayer(GAMMA, M, E)
+    lat = tps.Lattice.planar(n_nodes=n_nodes, length=dx * (n_nodes - 1), boundary="pinned")
+    t0 = fl.t0 + 1.0
+    w, z = kink_state(lat, fl, t0, width=2.0)
+    return lat, t0, w, z, fl.period
+
+
+def paths_table(repeat=3, flat_periods=2, kink_periods=1, radau_kink=False):
+    """CPU seconds per period of the numpy path, the compiled path and Radau, side by side.
+
+    Returns
+    -------
+    list of dict
+        One row per case: ``numpy``, ``compiled``, ``radau`` (s/period, min of ``repeat``; ``radau``
+        None where not run), their ratios, events, ``dt`` (largest event-time difference of the two
+        paths, NaN if their event sequences differ) and ``radau_error`` (largest state difference at
+        the end, compiled path against Radau).
+    """
+    cases = [("flat 101 nodes, dx 0.5, perturbed 1e-6", _perturbed_flat_case(), flat_periods, True),
+             ("kink 481 nodes, dx 0.1", _big_kink_case(), kink_periods, radau_kink)]
+    rows = []
+    # compile the kernels (cached on disk) before timing
+    drive(SoftIntegrator(tps.Lattice.planar(n_nodes=5, length=4.0), GAMMA, E, cutoff=ELL, compiled=True),
+          0.0, np.full(5, -1.0), np.full(5, 0.01), 3.0)
+    for label, (lat, t0, w, z, period), periods, with_radau in cases:
+        t_end = t0 + periods * period
+        runs = {"numpy": lambda: drive(SoftIntegrator(lat, GAMMA, E, cutoff=ELL, compiled=False), t0, w, z, t_end),
+                "compiled": lambda: drive(SoftIntegrator(lat, GAMMA, E, cutoff=ELL, compiled=True), t0, w, z, t_end)}
+        if with_radau:
+            runs["radau"] = lambda: simulate_soft(lat, GAMMA, E, w, z, t0, t_end, cutoff=ELL)
+        best, out = {k: np.inf for k in runs}, {}
+        for _ in range(repeat):
+            for name, fn in runs.items():
+                out[name], _, cpu = _timed(fn)
+                best[name] = min(best[name], cpu / periods)
+        a, b = out["numpy"][3], out["compiled"][3]
+        same = len(a) == len(b) and all(x[1:3] == y[1:3] for x, y in zip(a, b))
+        dt = max(abs(x[0] - y[0]) for x, y in zip(a, b)) if same else float("nan")
+        row = dict(case=label, periods=periods, events=len(b), numpy=best["numpy"], compiled=best["compiled"],
+                   radau=best.get("radau"), same=same, dt=dt, radau_error=None)
+        if "radau" in out:
+            ref = out["radau"]
+            row["radau_error"] = float(max(np.max(np.abs(out["compiled"][1] - ref.w)),
+                                           np.max(np.abs(out["compiled"][2] - ref.zeta))))
+        rows.append(row)
+    return rows
+
+
+def print_paths_table(rows, repeat):
+    print(f"soft integrator: numpy path vs compiled path vs Radau (CPU s per period, min of {repeat}, one BLAS "
+          "thread; Gamma 2.5, e 0.45, cutoff 0.3, stick_speed 1e-4)")
+    print("| case | periods | events | numpy | compiled | Radau | numpy/compiled | Radau/numpy | Radau/compiled "
+          "| max dt numpy-compiled | state diff compiled-Radau |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        rad, err = r["radau"], r["radau_error"]
+        cells = [r["case"], str(r["periods"]), str(r["events"]), f"{r['numpy']:.3g}", f"{r['compiled']:.3g}",
+                 f"{rad:.3g}" if rad else "-", f"{r['numpy'] / r['compiled']:.1f}",
+                 f"{rad / r['numpy']:.0f}" if rad else "-", f"{rad / r['compiled']:.0f}" if rad else "-",
+                 f"{r['dt']:.1e}" + ("" if r["same"] else " (events differ)"),
+                 f"{err:.1e}" if err is not None else "-"]
+        print("| " + " | ".join(cells) + " |")
+
+
 def _kink_line(r, label=""):
     return (f"kink n={r['n_nodes']} dx={r['dx']:g} cutoff={ELL:g}{label}: {r['wall_per_period']:.2f} s wall / "
             f"{r['cpu_per_period']:.2f} s cpu per period over {r['periods']} period(s); {r['n_steps']} steps "
@@ -191,7 +273,16 @@ def main(argv=None):
                         help="path of another soft.py to time side by side on the 481-node kink")
     parser.add_argument("--repeat", type=int, default=1,
                         help="runs of the 481-node kink (alternating with the baseline); the fastest is shown")
+    parser.add_argument("--paths", action="store_true",
+                        help="only the numpy / compiled / Radau table (paths_table)")
+    parser.add_argument("--radau-kink", action="store_true", help="with --paths: Radau on the 481-node kink too")
+    parser.add_argument("--flat-periods", type=int, default=2, help="with --paths: periods of the flat lattice")
     args = parser.parse_args(argv)
+    if args.paths:
+        with one_blas_thread():
+            rows = paths_table(args.repeat, args.flat_periods, args.periods, args.radau_kink)
+        print_paths_table(rows, args.repeat)
+        return
     with one_blas_thread():
         r = flat_orbit_errors(50)
         print(f"flat orbit, 50 periods: entry error {r['entry_error']:.2e}, exit error "

@@ -26,14 +26,12 @@ per step, whatever the contact set.  The step size is controlled by step
 doubling (the difference of one step and two half steps estimates the local
 error of the order-:math:`2s-1` method) against ``rtol``/``atol``.
 
-Cost: besides ``zgtsv`` a step is a fixed, small number of numpy calls -- the
-configuration constants are cached per contact set (and per held set), the
-state part of the stage right-hand sides is formed once per start state (the
-trial step and the Newton steps of a switch search share it), and the stage
-values and the scan grid come from one real matrix product.  On the 481-node
-kink of ``benchmarks/soft_benchmark.py`` (4609 switches, 21659 steps in two
-periods) ``zgtsv`` is about a quarter of the run and numpy call overhead most
-of the rest (measured with a sampling profiler).
+Cost: on the numpy path (``compiled=False``, the reference) a step is ``zgtsv`` and a fixed, small
+number of numpy calls (configuration constants cached per contact set, the state part of the stage
+right-hand sides formed once per start state, stage values and scan grid from one real product); numpy
+call overhead is most of it.  With numba (the default where installed) the step loop, the scan and the
+switch search run as compiled kernels (:mod:`~tps_solver.solvers.fda.soft_kernels`) and agree with the
+numpy path to rounding; ``benchmarks/soft_benchmark.py`` times both.
 
 Switches
 --------
@@ -117,16 +115,15 @@ soft contact or release of a held node, ``w_before`` = velocity at exit) and
 the capture).
 """
 import collections
-import functools
-import inspect
 import math
 
-import mpmath
 import numpy as np
 from scipy.linalg import lapack
 
+from tps_solver.core import jit
 from tps_solver.core.checks import check_int, check_positive
 from tps_solver.solvers.fda.base import Integrator, Step
+from tps_solver.solvers.fda.radau_tableau import lagrange_matrix, radau_iia
 from tps_solver.operators.lattice import Lattice
 from tps_solver.model.soft_flat import soft_contact_parameters
 
@@ -135,70 +132,8 @@ __all__ = ["SoftIntegrator", "radau_iia"]
 _FREE, _CONTACT, _HELD = 0, 1, 2
 
 
-def radau_iia(s):
-    r"""Nodes and Butcher matrix of the ``s``-stage Radau IIA method (computed in 40-digit arithmetic).
-
-    Parameters
-    ----------
-    s : int
-        Number of stages, >= 1 (order :math:`2s - 1`).
-
-    Returns
-    -------
-    c : ndarray of float, shape (s,)
-        Nodes, the roots of :math:`d^{s-1}/dx^{s-1}[x^{s-1}(x-1)^s]`; ``c[-1] = 1``.
-    A : ndarray of float, shape (s, s)
-        :math:`A_{ij} = \int_0^{c_i}\ell_j(\tau)\,d\tau` (collocation).
-
-    Examples
-    --------
-    >>> c, A = radau_iia(2)
-    >>> np.round(c, 12).tolist(), np.round(A, 12).tolist()
-    ([0.333333333333, 1.0], [[0.416666666667, -0.083333333333], [0.75, 0.25]])
-    """
-    s = check_int(s, "s", minimum=1)
-    c, A = _radau_iia(s)
-    return c.copy(), A.copy()
-
-
-@functools.lru_cache(maxsize=None)
-def _radau_iia(s):
-    """:func:`radau_iia` without the copies (cached: 40-digit arithmetic takes ~70 ms per call)."""
-    with mpmath.workdps(40):
-        x = mpmath.mpf
-        # coefficients of x^(s-1) (x-1)^s, highest degree first
-        p = [mpmath.binomial(s, k) * (-1) ** k for k in range(s + 1)] + [x(0)] * (s - 1)
-        for _ in range(s - 1):                      # differentiate s-1 times
-            deg = len(p) - 1
-            p = [p[i] * (deg - i) for i in range(deg)]
-        if len(p) <= 2:
-            roots = [-p[1] / p[0]]
-        elif "asc" in inspect.signature(mpmath.polyroots).parameters:      # mpmath >= 1.4
-            roots = mpmath.polyroots(p[::-1], maxsteps=200, extraprec=80, asc=True)
-        else:
-            roots = mpmath.polyroots(p, maxsteps=200, extraprec=80)
-        c = sorted(mpmath.re(r) for r in roots)
-        c[-1] = x(1)
-        V = mpmath.matrix([[ci ** m for m in range(s)] for ci in c])
-        W = mpmath.matrix([[ci ** (m + 1) / (m + 1) for m in range(s)] for ci in c])
-        A = W * V ** -1
-        return (np.array([float(ci) for ci in c]),
-                np.array([[float(A[i, j]) for j in range(s)] for i in range(s)]))
-
-
 class _Config:
     """Constants of one contact configuration (attributes set by ``SoftIntegrator._config``)."""
-
-
-def _lagrange_matrix(nodes, theta):
-    """Values at ``theta`` of the Lagrange basis on ``nodes``: shape (len(theta), len(nodes))."""
-    nodes = np.asarray(nodes, float)
-    out = np.ones((len(theta), nodes.size))
-    for j in range(nodes.size):
-        for m in range(nodes.size):
-            if m != j:
-                out[:, j] *= (theta - nodes[m]) / (nodes[j] - nodes[m])
-    return out
 
 
 class SoftIntegrator(Integrator):
@@ -230,6 +165,11 @@ class SoftIntegrator(Integrator):
     max_events : int
         Bound on events per node within one forcing period :math:`2\pi`
         (default 200): beyond it :meth:`advance` raises ``RuntimeError``.
+    compiled : bool or None, optional
+        Run the step loop, the scan and the switch search as compiled kernels
+        (:mod:`~tps_solver.solvers.fda.soft_kernels`, the ``fast`` extra); ``None`` (default):
+        where numba is installed (:func:`tps_solver.core.jit.enabled`).  ``False`` is the numpy
+        path, the reference; the two agree to rounding.
 
     Attributes
     ----------
@@ -255,7 +195,7 @@ class SoftIntegrator(Integrator):
     name = "soft"
     impulsive = False
     OPTIONS = {"cutoff": None, "rtol": 1e-12, "atol": 1e-12, "stages": 6, "stick_speed": 1e-4,
-               "time_tol": 1e-12, "max_step": None, "max_events": 200}
+               "time_tol": 1e-12, "max_step": None, "max_events": 200, "compiled": None}
 
     def __init__(self, lattice, Gamma, e, **options):
         super().__init__(lattice, Gamma, e, **options)
@@ -283,6 +223,13 @@ class SoftIntegrator(Integrator):
         self.max_step = (self.tau_c if opt["max_step"] is None
                          else check_positive(opt["max_step"], "max_step"))
         self.max_events = check_int(opt["max_events"], "max_events", minimum=1)
+        compiled = opt["compiled"]
+        if compiled not in (None, True, False):
+            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
+        if compiled and not jit.enabled():
+            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
+                             "not set to 0; use compiled=None or False")
+        self.compiled = jit.enabled() if compiled is None else bool(compiled)
         self.n_rejected = 0
 
         L = np.asarray(lattice.operator, float)
@@ -323,7 +270,7 @@ class SoftIntegrator(Integrator):
         self._nodes = np.concatenate(([0.0], c))
         G = s + 2
         self._theta = np.arange(1, G + 1) / G
-        self._dense = _lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
+        self._dense = lagrange_matrix(self._nodes, self._theta)                          # (G, s+1)
         self._vinv = np.linalg.inv(np.vander(self._nodes, increasing=True))              # monomials
         self._order = 2 * s - 1
         self._h = None
@@ -348,15 +295,16 @@ class SoftIntegrator(Integrator):
         self._is_contact = np.array([0.0, 1.0, 0.0])   # lookup tables indexed by mode
         self._is_free = np.array([1.0, 0.0, 0.0])
         self._sign = np.array([-1.0, 1.0, 1.0])
+        if self.compiled:
+            from tps_solver.solvers.fda import soft_kernels
+            self._kernels = soft_kernels
+            # the tableau as the kernels take it (C-contiguous)
+            self._keig = tuple(np.ascontiguousarray(a) for a in (
+                self._lam, self._q, self._Tinv_rep, self._Trep, self._c, self._cT, self._dense))
+            self._kLl = np.concatenate(([0.0], self._Ll))        # full operator row j: L[j, j-1], L[j, j+1]
+            self._kLu = np.concatenate((self._Lu, [0.0]))
 
     # ------------------------------------------------------------ linear algebra
-    def _Lmul(self, u):
-        """Full :math:`\\underline L u` for u of shape (..., n) (the free acceleration of held nodes)."""
-        out = self._Ld * u
-        out[..., 1:] += self._Ll * u[..., :-1]
-        out[..., :-1] += self._Lu * u[..., 1:]
-        return out
-
     def _config(self, mode):
         """Per-configuration constants (mode: 0 free, 1 soft contact, 2 held), cached."""
         key = mode.tobytes()
@@ -368,6 +316,17 @@ class SoftIntegrator(Integrator):
         return cfg
 
     def _make_config(self, mode):
+        if self.compiled:                               # the attributes the compiled path reads, in one call
+            cfg = _Config()
+            F, cfg.held, H, HL = self._kernels.configure(mode, self._Ld, self._Ll, self._Lu, 2.0 * self.beta,
+                                                         self.omega0_sq)
+            cfg.dw, cfg.om2c, cfg.f, cfg.sgn, cfg.rows_ok = F[:5]
+            cfg.Ll, cfg.Lu = F[5, :-1], F[6, :-1]
+            cfg.hidx, cfg.him, cfg.hip = H
+            cfg.hLd, cfg.hLl, cfg.hLu = HL
+            cfg.dz = -cfg.om2c
+            cfg.F, cfg.H, cfg.HL = F, H, HL
+            return cfg
         held = mode == _HELD
         key = held.tobytes()
         rows = self._rows_cache.get(key)
@@ -379,13 +338,15 @@ class SoftIntegrator(Integrator):
         cfg.__dict__.update(rows)
         c = cfg.c = self._is_contact[mode]
         cfg.f = self._is_free[mode]
+        cfg.held = held
         cfg.sgn = self._sign[mode]                      # violation: -zeta (free), zeta (contact)
         cfg.om2c = self.omega0_sq * c
         cfg.dw = cfg.Ld - (2.0 * self.beta) * c         # diagonal of the w-row of A acting on w
         cfg.dz = -cfg.om2c                              # ... acting on zeta
         # stacked block-tridiagonal stage matrix 1 + h P1 + h^2 P2 (blocks separated by zeros)
-        cfg.P1 = np.multiply.outer(self._mlam, cfg.dw).ravel()
-        cfg.P2 = np.multiply.outer(self._lam2, cfg.om2c).ravel()
+        if not self.compiled:                           # (the kernels form it themselves)
+            cfg.P1 = np.multiply.outer(self._mlam, cfg.dw).ravel()
+            cfg.P2 = np.multiply.outer(self._lam2, cfg.om2c).ravel()
         return cfg
 
     def _make_rows(self, held):
@@ -408,6 +369,8 @@ class SoftIntegrator(Integrator):
                     hLu=np.concatenate((self._Lu, [0.0]))[hidx])
 
     def _rhs(self, t, w, z, cfg):
+        if self.compiled:
+            return self._kernels.rhs_packed(float(t), w, z, cfg.F, 1.0 / self.Gamma)
         dw = cfg.dw * w + cfg.dz * z + (math.sin(t) - 1.0 / self.Gamma) * cfg.f
         dw[1:] += cfg.Ll * w[:-1]
         dw[:-1] += cfg.Lu * w[1:]
@@ -515,6 +478,10 @@ class SoftIntegrator(Integrator):
     # --------------------------------------------------------------- violations
     def _violation(self, t, w, z, mode, cfg, with_rate=True):
         """Violation v (crossing when v turns > 0) and its rate for every node."""
+        if self.compiled:
+            v, dv = self._kernels.violation_packed(float(t), w, z, cfg.F, cfg.H, cfg.HL, 1.0 / self.Gamma,
+                                                   with_rate)
+            return (v, dv) if with_rate else v
         v = z * cfg.sgn
         hi = cfg.hidx
         if hi.size:
@@ -559,6 +526,8 @@ class SoftIntegrator(Integrator):
     # ------------------------------------------------------------------ driver API
     def _initial_mode(self, w, z, stuck):
         stuck = np.zeros(self.n, bool) if stuck is None else np.asarray(stuck, bool)
+        if self.compiled:
+            return self._kernels.initial_mode(stuck, w, z)
         mode = np.where(stuck, _CONTACT, _FREE)
         mode[stuck & (w == 0.0) & (z == 0.0)] = _HELD
         return mode
@@ -590,12 +559,23 @@ class SoftIntegrator(Integrator):
     def _switch(self, t, w, z, mode, enter, leave, release, events):
         """Apply the switches at time t in place, with the sticking rule; append event records."""
         vs = self.stick_speed
-        a = None
-        if vs > 0.0 and (enter.size or leave.size):
-            a = self._Lmul(w) + (math.sin(t) - 1.0 / self.Gamma)
+        # free accelerations (L w)_j + g(t) of the slow switching nodes, from the state before any capture
+        # (rows of the full operator)
+        a = {}
+        if vs > 0.0:
+            g = math.sin(t) - 1.0 / self.Gamma
+            n = self.n
+            for j in list(enter) + list(leave):
+                if abs(w[j]) <= vs:
+                    x = self._Ld[j] * w[j]
+                    if j > 0:
+                        x += self._Ll[j - 1] * w[j - 1]
+                    if j < n - 1:
+                        x += self._Lu[j] * w[j + 1]
+                    a[j] = x + g
         for j in enter:
             wb = float(w[j])
-            if a is not None and abs(wb) <= vs and a[j] <= 0.0:
+            if j in a and a[j] <= 0.0:
                 mode[j] = _HELD
                 w[j] = z[j] = 0.0
                 events.append((t, int(j), "stick", wb))
@@ -604,7 +584,7 @@ class SoftIntegrator(Integrator):
                 events.append((t, int(j), "impact", wb))
         for j in leave:
             wb = float(w[j])
-            if a is not None and abs(wb) <= vs and a[j] <= 0.0:
+            if j in a and a[j] <= 0.0:
                 mode[j] = _HELD
                 w[j] = z[j] = 0.0
                 events.append((t, int(j), "stick", wb))
@@ -680,13 +660,24 @@ class SoftIntegrator(Integrator):
         order = self._order
         while True:
             t_target = t_stop if k_eval >= t_eval.size else min(t_stop, t_eval[k_eval])
-            R0 = self._start(w, z, cfg)
+            R0 = None if self.compiled else self._start(w, z, cfg)
             if fc is not None:
                 # the previous trial step predicted more crossings: go straight to the next one
                 found = self._from_forecast(t, w, z, mode, cfg, fc, t_target, R0)
                 fc = None
                 if found is not None:
                     return self._finish(t, w, z, mode, cfg, *found, t_eval, k_eval, samples, events, R0)
+            if self.compiled:
+                # the loop below as one kernel call: steps to t_target or to a step with a crossing
+                t, crossing = self._march(t, t_target, w, z, mode, cfg)
+                if crossing is not None:
+                    return self._finish(t, w, z, mode, cfg, *crossing, t_eval, k_eval, samples, events)
+                if k_eval < t_eval.size and t_eval[k_eval] == t:
+                    samples.append((t, w.copy(), z.copy()))
+                    k_eval += 1
+                if t >= t_stop:
+                    return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
+                continue
             h = min(self._h, self.max_step, t_target - t)
             last = h >= t_target - t
             # step ends are floats and steps are their exact differences (no drift of t)
@@ -757,6 +748,37 @@ class SoftIntegrator(Integrator):
             if t >= t_stop:
                 return Step(t=t_stop, w=w, zeta=z, samples=samples, events=events, stuck=mode != _FREE)
 
+    def _march(self, t, t_target, w, z, mode, cfg):
+        """Compiled path of the step loop of :meth:`advance` (:func:`.soft_kernels.march`).
+
+        Accepted steps update ``w, z`` in place.  Returns ``(t, None)`` at ``t_target``, or
+        ``(t, (j, he, we, ze, fc))`` with the located crossing of a step that starts at ``t``.
+        """
+        kn = self._kernels
+        n = self.n
+        xnodes, xguess, xtop, xstate = np.empty(n, np.int64), np.empty(n), np.empty(n), np.empty(2)
+        status, t, self._h, count, steps, rejected = kn.march_packed(
+            t, t_target, self._h, self.max_step, w, z, cfg.F, cfg.held, cfg.H, cfg.HL, 1.0 / self.Gamma, self.rtol,
+            self.atol, self._order, self.time_tol, *self._keig, self._theta, self._vinv, xnodes, xguess, xtop,
+            xstate)
+        self.n_steps += steps
+        self.n_rejected += rejected
+        if status == kn.NONFINITE:
+            raise RuntimeError(f"soft integrator: non-finite state at t = {t:.15g}")
+        if status == kn.UNDERFLOW:
+            raise RuntimeError(f"soft integrator: step size underflow at t = {t:.15g}")
+        if status == kn.SINGULAR:
+            raise RuntimeError(f"soft integrator: singular stage system at t = {t:.15g}")
+        if status == kn.REACHED:
+            return t, None
+        nodes, guess = xnodes[:count], xguess[:count]
+        i = int(np.argmin(guess))
+        j = int(nodes[i])
+        he, we, ze = self._locate(t, w, z, mode, cfg, j, float(guess[i]) - t, float(xtop[i]) - t,
+                                  h_lo=4.0 * self.time_tol if xstate[1] else 0.0)
+        fc = {"nodes": nodes, "guess": guess, "mode": mode[nodes].copy(), "t_limit": float(xstate[0])}
+        return t, (j, he, we, ze, fc)
+
     def _from_forecast(self, t, w, z, mode, cfg, fc, t_target, R0):
         """Locate the next predicted crossing without a trial step; None if the prediction fails."""
         ok = (fc["mode"] == mode[fc["nodes"]]) & (fc["guess"] < fc["t_limit"])
@@ -816,6 +838,19 @@ class SoftIntegrator(Integrator):
         switch is located to the precision of h (not of t).  Returns (h, w, zeta) at the crossing.
         ``h_lo > 0``: node j starts on the wrong side of its last switch (see :meth:`advance`).
         """
+        if self.compiled:
+            kn = self._kernels
+            we, ze = np.empty(self.n), np.empty(self.n)
+            status, hk, steps = kn.locate_packed(
+                t0, w0, z0, int(j), float(guess), float(h_hi), bool(verified), float(h_lo), cfg.F, self._Ld[j],
+                self._kLl[j], self._kLu[j], 1.0 / self.Gamma, *self._keig, we, ze)
+            self.n_steps += steps
+            if status == 0:
+                return hk, we, ze
+            if status == kn.UNVERIFIED:
+                return None
+            raise RuntimeError(f"soft integrator: switch search of node {j} stalled near t = {t0 + hk:.15g}; "
+                               "try a smaller max_step or time_tol")
         lo, hi = min(h_lo, 0.5 * h_hi), h_hi
         hk = min(max(guess, 0.0), h_hi)
         best = None
@@ -898,6 +933,10 @@ class SoftIntegrator(Integrator):
         Returns (nodes, early, dt): ``early`` >= 0 is a node that crossed more than time_tol before
         te (the earliest such, ``dt`` before te), else -1.
         """
+        if self.compiled:
+            nodes, early, dt = self._kernels.simultaneous_packed(te, we, ze, cfg.F, cfg.H, cfg.HL, 1.0 / self.Gamma,
+                                                                 int(j), self.time_tol)
+            return (None, early, dt) if early >= 0 else (nodes, -1, 0.0)
         v, dv = self._violation(te, we, ze, mode, cfg)
         thr = self.time_tol * dv                   # |te - t_cross| <= time_tol  <=>  |v| <= thr (dv > 0)
         early = v > np.maximum(thr, 0.0)           # crossed more than time_tol before te
