@@ -261,8 +261,10 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
         Solve for the kink as a fixed point of the mirrored half-period map
         (:class:`~tps_solver.solvers.shooting.symmetric.MirroredHalfPeriodMap`: half a period of
         the FDA, then :math:`x \mapsto -x`), whose Newton does not creep along the front's
-        near-neutral translation, then polish on the period map (which also gives the
-        multipliers).  It finds the kink centred on the lattice's mirror point: a node for an
+        near-neutral translation, then polish on the period map.  The multipliers of such a
+        kink come from G as well (:math:`\mu = \lambda_G^2`, ``multipliers_map="mirrored"``;
+        ``multiplier_map="period"`` computes them on the period map instead, see
+        :func:`~tps_solver.find_periodic_orbit`).  It finds the kink centred on the lattice's mirror point: a node for an
         odd number of nodes, midway between two for an even number (the two pinned kinks).
         ``None`` (default): where the lattice is mirror symmetric
         (:func:`~tps_solver.solvers.shooting.symmetric.mirror_symmetric`).  If that Newton does

@@ -56,21 +56,33 @@ def multipliers(monodromy, k=None):
     return mu[np.argsort(-np.abs(mu), kind="stable")]
 
 
-def ritz_multipliers(matvec, n, k, dim, v0):
-    r"""The ``k`` leading multipliers as Ritz values of an Arnoldi factorisation of fixed dimension.
+def ritz_multipliers(matvec, n, k, dim, v0, tol=None, min_dim=None, power=1):
+    r"""The ``k`` leading multipliers as Ritz values of an Arnoldi factorisation of bounded dimension.
 
-    One product per step and no implicit restarts, so the cost (``dim`` products) is known in
-    advance; ARPACK's restarts to a tolerance have no useful bound when the spectrum is clustered
-    near 0 (sticking) and the products carry finite-difference noise.
+    One product per step and no implicit restarts, so the cost (at most ``dim`` products) is
+    known in advance; ARPACK's restarts to a tolerance have no useful bound when the spectrum
+    is clustered near 0 (sticking) and the products carry finite-difference noise.  With
+    ``tol`` the factorisation stops early, at the first dimension ``>= min_dim`` where every
+    one of the ``k`` leading Ritz pairs has the residual estimate
+    :math:`r_i = |h_{j+1,j}\, y_{j,i}|` with
+    :math:`p\,|\theta_i|^{p-1} r_i \le` ``tol`` :math:`\cdot|\theta_1|^p` (``power`` p: the
+    first-order error of :math:`\theta_i^p`, e.g. p = 2 for the multipliers of :math:`P = G^2`
+    from those of G).
 
     Parameters
     ----------
     matvec : callable
         ``v -> M v`` for the monodromy M, v of shape (n,).
     n, k, dim : int
-        Size, multipliers wanted (``k <= dim <= n``), Krylov dimension.
+        Size, multipliers wanted (``k <= dim <= n``), largest Krylov dimension.
     v0 : ndarray of float, shape (n,)
         Start vector.
+    tol : float, optional
+        Relative residual estimate at which to stop early (default: never, ``dim`` products).
+    min_dim : int, optional
+        Smallest dimension at which an early stop is allowed; default ``k + 2``.
+    power : int
+        The power p of the stopping rule.
 
     Returns
     -------
@@ -79,7 +91,7 @@ def ritz_multipliers(matvec, n, k, dim, v0):
     residuals : ndarray of float, shape (k,)
         Ritz residual estimates :math:`|h_{j+1,j}\, y_j|` of the reported pairs.
     used : int
-        The dimension reached (smaller than ``dim`` at an invariant subspace).
+        The dimension reached (smaller than ``dim`` at an invariant subspace or an early stop).
 
     Examples
     --------
@@ -87,11 +99,16 @@ def ritz_multipliers(matvec, n, k, dim, v0):
     >>> mu, res, used = ritz_multipliers(lambda v: A @ v, 30, 2, 30, np.ones(30))
     >>> np.round(mu.real, 12).tolist(), bool(np.all(res < 1e-8))
     ([0.9, 0.868965517241], True)
+    >>> B = np.diag(0.5 ** np.arange(30.0))              # a fast-decaying spectrum
+    >>> mu, res, used = ritz_multipliers(lambda v: B @ v, 30, 2, 30, np.ones(30), tol=1e-12)
+    >>> np.round(mu.real, 12).tolist(), used < 30
+    ([1.0, 0.5], True)
     """
     V = np.zeros((n, dim + 1))
     H = np.zeros((dim + 1, dim))
     V[:, 0] = v0 / np.linalg.norm(v0)
     used = dim
+    min_dim = k + 2 if min_dim is None else int(min_dim)
     for j in range(dim):
         wv = matvec(V[:, j])
         for _ in range(2):
@@ -103,6 +120,14 @@ def ritz_multipliers(matvec, n, k, dim, v0):
             used = j + 1
             break
         V[:, j + 1] = wv / H[j + 1, j]
+        if tol is not None and j + 1 >= max(min_dim, k) and j + 1 < dim:
+            theta, Y = np.linalg.eig(H[:j + 1, :j + 1])
+            order = np.argsort(-np.abs(theta), kind="stable")[:k]
+            res = np.abs(H[j + 1, j] * Y[j, order])
+            a = np.abs(theta[order])
+            if np.all(power * a ** (power - 1) * res <= tol * max(float(a[0]) ** power, 1e-300)):
+                used = j + 1
+                break
     theta, Y = np.linalg.eig(H[:used, :used])
     order = np.argsort(-np.abs(theta), kind="stable")[:k]
     return theta[order].astype(complex), np.abs(H[used, used - 1] * Y[used - 1, order]), used

@@ -49,7 +49,13 @@ all of them from a central-difference Jacobian when there are at most ``dense_ma
 unknowns, otherwise the ``n_multipliers`` leading ones as Ritz values of an Arnoldi
 factorisation of fixed dimension with the matrix-free product (no implicit restarts:
 the cost is known in advance, whereas restarts to a tolerance have no useful bound
-when the spectrum is clustered near 0 and the products carry finite-difference noise).  With point impacts
+when the spectrum is clustered near 0 and the products carry finite-difference noise).  A kink
+centred on a mirror-symmetric lattice is a fixed point of the mirrored half-period map
+:math:`G = S\circ P_{T/2}` as well, and :math:`DP_T = DG^2` there: its multipliers are the
+squares of DG's eigenvalues, from central differences of G (two half periods a product, as
+much as one one-sided product of P and about 100 times more accurate) and an Arnoldi
+factorisation that stops when the leading ones have converged
+(:func:`~tps_solver.solvers.shooting.symmetric.mirrored_multipliers`; ``multiplier_map``).  With point impacts
 the map is only piecewise smooth where several nodes touch the plate (nearly)
 together: the post-impact state depends on the order of the impacts
 (docs/design.md, hazard 7).  Before computing multipliers, forward and backward
@@ -74,6 +80,7 @@ from tps_solver.solvers.shooting.period_map import PeriodMap, PeriodMapError
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
 from tps_solver.solvers.fda.dense import PiecewiseFlow
 from tps_solver.solvers.shooting.floquet import fit_growth, multipliers as floquet_multipliers, ritz_multipliers
+from tps_solver.solvers.shooting.symmetric import MirroredHalfPeriodMap, mirror_symmetric, mirrored_multipliers
 
 __all__ = ["find_periodic_orbit", "ShootingOrbit"]
 
@@ -128,8 +135,21 @@ class ShootingOrbit(PeriodicOrbit):
         Soft contact: ``"all (exact)"`` or ``"leading (exact)"`` -- the product of matrix
         exponentials and saltation matrices of :class:`~tps_solver.solvers.shooting.soft_monodromy.SoftMonodromy`
         (ARPACK for the leading ones), no finite differences; Newton uses its exact product too.
+    multipliers_map : str
+        Which map they come from: ``"mirrored"`` (the squares of the eigenvalues of the mirrored
+        half-period map :math:`G = S\circ P_{T/2}`, a kink centred on a mirror-symmetric
+        lattice's mirror point; ``multiplier_map`` of :func:`find_periodic_orbit`), ``"period"``
+        (the period map) or ``"none"``.
+    half_period_multipliers : ndarray of complex
+        ``"mirrored"`` only: the eigenvalues :math:`\lambda` of :math:`DG` whose squares are
+        ``multipliers`` (same order); the front's translation has :math:`\lambda \approx -1`.
+    multiplier_periods : float
+        Periods of the FDA spent on the multipliers (the differentiability test included).
+    multiplier_time : float
+        Wall-clock seconds of that stage.
     multiplier_residuals : ndarray of float or None
-        Arnoldi only: Ritz residual estimates of the reported multipliers.
+        Arnoldi only: Ritz residual estimates of the reported multipliers (of :math:`\lambda`
+        for ``"mirrored"``).
     arnoldi_dim : int
         Arnoldi only: Krylov dimension used (period maps spent on the multipliers).
     differentiable : bool or None
@@ -398,7 +418,7 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
                         krylov_dim=None, gmres_rtol=1e-4, multipliers=True, n_multipliers=6,
                         dense_max=64, jacobian_step=None, differentiability_rtol=1e-3,
                         neutral_tol=1e-2, simultaneity=1e-6, growth_periods=10,
-                        max_events_per_period=None, callback=None, **simulate_kw):
+                        max_events_per_period=None, callback=None, multiplier_map="auto", **simulate_kw):
     r"""Periodic orbit of the FDA period map by Newton--Krylov shooting (see the module docstring).
 
     Parameters
@@ -464,6 +484,20 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         Periods of the perturbation-growth measurement (used when the map is not differentiable).
     max_events_per_period : int, optional
         Event bound of one period map; default ``100 * n_nodes``.  Exceeding it stops with status 3.
+    multiplier_map : {"auto", "mirrored", "period"}
+        Which map the multipliers come from.  ``"mirrored"``: on a mirror-symmetric lattice
+        with ``M`` even and point impacts, an orbit that is also a fixed point of the mirrored
+        half-period map :math:`G = S\circ P_{T/2}` (e.g. a kink centred on the mirror point) has
+        :math:`DP_T = DG^2`, so its multipliers are the squares of DG's eigenvalues
+        (point impacts: :func:`~tps_solver.solvers.shooting.symmetric.mirrored_multipliers`,
+        central differences of relative step ``jacobian_step``, default 1e-5 and, where the
+        differentiability test fails at that step (a switch of the map within it), the
+        default ``jacobian_step`` of the method; two half periods a product, Arnoldi stopped when the leading ones have converged, the differentiability
+        test from its first two products; the soft contact: the exact half-period monodromy,
+        mirrored); an orbit that is not such a fixed point (to
+        ``max(1e-9, 100 tol)``) falls back to the period map, and the message says so.
+        ``"period"``: the period map itself (the reference).  ``"auto"`` (default):
+        ``"mirrored"`` where it applies, else ``"period"``.
     callback : callable, optional
         ``callback(state)`` after every Newton step and once for the start (a
         :class:`~tps_solver.core.progress.ProgressState`: stage ``"shooting"``, ``iteration``,
@@ -514,11 +548,17 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
         raise ValueError(f"cutoff is only used with method='soft', got method={method!r}")
     section = check_choice(section, "section", ("auto", "fixed"))
     multipliers = check_bool(multipliers, "multipliers")
+    multiplier_map = check_choice(multiplier_map, "multiplier_map", ("auto", "mirrored", "period"))
+    if multiplier_map == "mirrored" and (M % 2 or not mirror_symmetric(lattice)):
+        raise ValueError("multiplier_map='mirrored' needs an even M and a lattice symmetric under x -> -x "
+                         f"(got M = {M}); use multiplier_map='period' or 'auto'")
+    mirror_steps = None if jacobian_step is None else (check_positive(jacobian_step, "jacobian_step"),)
     defaults = {"exact": (1e-11, 1e-7, 1e-7), "point": (1e-11, 1e-7, 1e-7), "ode": (1e-9, 1e-6, 1e-6),
                 "soft": (1e-10, 1e-5, 1e-4)}[method]
     tol = defaults[0] if tol is None else check_positive(tol, "tol")
     fd_step = defaults[1] if fd_step is None else check_positive(fd_step, "fd_step")
     jacobian_step = defaults[2] if jacobian_step is None else check_positive(jacobian_step, "jacobian_step")
+    mirror_steps = mirror_steps or (1e-5, jacobian_step)
     max_iter = check_int(max_iter, "max_iter", minimum=0)
     gmres_rtol = check_positive(gmres_rtol, "gmres_rtol")
     n_multipliers = check_int(n_multipliers, "n_multipliers", minimum=1)
@@ -569,7 +609,9 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
                             t_start=float(t_s), period=T, lattice=lattice, Gamma=Gamma, M=M, e=e,
                             method=method, cutoff=cutoff, section_clearance=clearance,
                             multipliers=np.empty(0, complex), multipliers_kind="none", differentiable=None,
-                            multiplier_residuals=None, arnoldi_dim=0,
+                            multiplier_residuals=None, arnoldi_dim=0, multipliers_map="none",
+                            half_period_multipliers=np.empty(0, complex), multiplier_periods=0.0,
+                            multiplier_time=0.0,
                             growth_factor=float("nan"), neutral=False,
                             contacts_per_node=np.zeros(n, int), contact_times=[np.empty(0)] * n,
                             sticking_intervals=[], events=None, events_per_period=0,
@@ -691,18 +733,30 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
     except KeyboardInterrupt:
         interrupted("while reading the contact pattern")
         notes.append("contact pattern not evaluated (KeyboardInterrupt)")
+    half = [0]                      # half periods of the mirrored map (multiplier stage)
     if out.status == 0 and multipliers:
         try:
             if Px is None:
                 Px = pm(x)[0]
-            _multipliers(out, pm, x, Px, m, jacobian_step, dense_max, n_multipliers,
-                         differentiability_rtol, neutral_tol, growth_periods, notes)
+            before, symmetric, clock = pm.count, False, time.perf_counter()
+            if multiplier_map != "period" and M % 2 == 0 and mirror_symmetric(lattice):
+                G, Gx, symmetric = _mirrored_fixed_point(pm, x, T, max(1e-9, 100.0 * tol), notes)
+                half[0] += G.count
+            if symmetric:
+                half[0] += _multipliers_mirrored(out, G, x, Gx, mirror_steps, dense_max, n_multipliers,
+                                                 differentiability_rtol, neutral_tol, growth_periods, notes)
+            else:
+                _multipliers(out, pm, x, Px, m, jacobian_step, dense_max, n_multipliers,
+                             differentiability_rtol, neutral_tol, growth_periods, notes)
+                out.multipliers_map = "period" if out.multipliers.size else "none"
+            out.multiplier_periods = float(pm.count - before) + 0.5 * half[0]
+            out.multiplier_time = time.perf_counter() - clock
         except PeriodMapError as exc:
             notes.append(f"multipliers not computed: {exc.message}")
         except KeyboardInterrupt:
             interrupted("while computing the multipliers")
             notes.append("multipliers not computed")
-    out.n_period_maps = n_maps + pm.count
+    out.n_period_maps = n_maps + pm.count + int(math.ceil(0.5 * half[0]))
     return _finish(out, notes, start_clock)
 
 
@@ -803,6 +857,73 @@ def _multipliers(out, pm, x, Px, m, jacobian_step, dense_max, n_mult, drtol, neu
     if out.neutral:
         notes.append(f"neutral multiplier {mu[near][0]:.6g} (|mu - 1| < {neutral_tol:g}): a nearly neutral "
                      "mode (e.g. the front position); I - J is ill-conditioned along it")
+
+
+def _mirrored_fixed_point(pm, x, T, sym_tol, notes):
+    """``(G, G(x), symmetric)``: the mirrored half-period map G at the section of ``pm``, its image of
+    ``x`` and whether ``x`` is a fixed point of G to ``sym_tol``."""
+    G = MirroredHalfPeriodMap(pm.lattice, pm.Gamma, pm.e, T, pm.t_s, stuck=pm.stuck, method=pm.method,
+                              max_events_per_period=pm.max_events, fd_step=pm.fd_step, **pm.kw)
+    Gx, extra = G(x)
+    defect = max(float(np.max(np.abs(Gx - x), initial=0.0)), extra)
+    if defect > sym_tol:
+        notes.append(f"the orbit is not a fixed point of the mirrored half-period map (max|G(x) - x| = "
+                     f"{defect:.2e} > {sym_tol:.1e}): multipliers from the period map")
+    return G, Gx, defect <= sym_tol
+
+
+def _multipliers_mirrored(out, G, x, Gx, steps, dense_max, n_mult, drtol, neutral_tol, growth_periods, notes):
+    """Floquet multipliers of P_T = G^2 from the mirrored half-period map G (central differences of the
+    first of ``steps`` at which P_T passes the differentiability test); returns the half periods spent."""
+    m = G.m
+    start = G.count
+    if G.method == "soft":          # exact: the mirrored half-period soft monodromy
+        if 2 * m <= max(dense_max, 400):
+            lam, kind = floquet_multipliers(G.monodromy_matrix(x)), "all (exact)"
+        else:
+            lam, kind = floquet_multipliers(G.monodromy(x), min(n_mult, 2 * m - 2)), "leading (exact)"
+        out.multipliers, out.half_period_multipliers = lam ** 2, lam
+        out.multipliers_kind, out.multipliers_map = kind, "mirrored"
+        _neutral(out, neutral_tol, notes)
+        return G.count - start
+    for i, step in enumerate(steps):
+        res = mirrored_multipliers(G, x, min(n_mult, 2 * m), step=step, dense=2 * m <= dense_max, Gx=Gx,
+                                   drtol=drtol)
+        if res.mu is not None:
+            break
+        if i + 1 < len(steps):
+            notes.append(f"central differences of relative step {step:g} straddle a switch of the map (forward "
+                         f"and backward differences differ by {res.gap:.3g}, size {res.size:.3g}); step "
+                         f"{steps[i + 1]:g} used")
+    out.differentiable = res.mu is not None
+    if res.mu is None:
+        reason = ("the period map is not differentiable at the orbit: forward and backward differences "
+                  f"differ by {res.gap:.3g} (size {res.size:.3g})")
+        if out.simultaneous_contacts:
+            reason += "; simultaneous contacts: the impact order matters (docs/design.md, hazard 7)"
+        pm = PeriodMap(G.lattice, G.Gamma, G.e, G.full_period, G.t_s, stuck=G.stuck, method=G.method,
+                       max_events_per_period=G.max_events, **G.kw)
+        out.growth_factor = _growth(pm, x, growth_periods)
+        notes.append(reason + f"; no multipliers; perturbation growth {out.growth_factor:.4g} per period "
+                     f"over {growth_periods} periods instead")
+        return G.count - start + 2 * pm.count
+    if res.dim:
+        out.multiplier_residuals, out.arnoldi_dim = res.residuals, res.dim
+    out.multipliers, out.half_period_multipliers = res.mu, res.half
+    out.multipliers_kind = "leading (Arnoldi)" if res.dim else "all (dense)"
+    out.multipliers_map = "mirrored"
+    _neutral(out, neutral_tol, notes)
+    return G.count - start
+
+
+def _neutral(out, neutral_tol, notes):
+    mu, lam = out.multipliers, out.half_period_multipliers
+    near = np.abs(mu - 1.0) < neutral_tol
+    out.neutral = bool(np.any(near))
+    if out.neutral:
+        notes.append(f"neutral multiplier {mu[near][0]:.6g} (|mu - 1| < {neutral_tol:g}; the mirrored map has "
+                     f"{lam[near][0]:.6g}): a nearly neutral mode (e.g. the front position); I - J is "
+                     "ill-conditioned along it")
 
 
 def _growth(pm, x, periods, size=1e-8, saturation=1e-3, seed=0):
