@@ -64,6 +64,7 @@ from tps_solver.core import defaults
 from tps_solver.model.restitution import RestitutionLaw, as_restitution
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.costs import check_cost, tps_cost
+from tps_solver.core.orbit import far_field
 from tps_solver.model.harmonics import centred, evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.tps.checks import physical_checks
@@ -266,6 +267,10 @@ def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geom
     sol.formulation = ("single-contact TPS (continuum, Green-function quadrature)" if lattice is None
                        else "single-contact TPS (FDA lattice)")
     sol.checks = physical_checks(sol)
+    sol.far_field_stable, sol.far_field_multipliers, note = far_field(flat)
+    sol.checks.far_field_stable = sol.far_field_stable
+    if note:
+        sol.message += "; " + note.rstrip()
     return sol
 
 

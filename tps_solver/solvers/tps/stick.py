@@ -250,9 +250,9 @@ def _newton(problem, x, tol, max_iter, callback=None):
     out = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", chord=0.1, min_step=1.0 / 256,
                  first=first, callback=callback)
     if out.status in (1, 2):
-        # where neighbours' events coincide (a far field of identical nodes: docs/design.md,
-        # hazard 13) the residual kinks and max|F| can grow along a Newton direction that still
-        # converges: the full-step Newton is tried from the same start, kept only if it converges
+        # where neighbours' events coincide (a far field of identical nodes:
+        # docs/design.md, hazard 13) the residual kinks and max|F| can grow along a Newton direction
+        # that still converges: the full-step Newton is tried from the same start, kept only if it converges
         raw = newton(problem, x, tol=tol, max_iter=max_iter, linear="dense", line_search="none",
                      first=first, callback=callback)
         if raw.status in (0, 5):

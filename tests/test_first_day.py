@@ -1,0 +1,140 @@
+"""A new user's first day with periodic orbits: each test is the user's call and the right outcome.
+
+Success only when the requested object was found; far fields that say whether they are stable;
+stability verdicts that agree with the multipliers (or say why they cannot); Ctrl-C at every
+stage of the e = 0 kink (a callback raising KeyboardInterrupt at a chosen stage: deterministic
+under load); continuation guarded from its start.
+"""
+import numpy as np
+import pytest
+
+import tps_solver as tps
+from tps_solver.core.problem import Problem
+
+
+def _kink_lattice():
+    return tps.Lattice.planar(n_nodes=6, length=40.0)      # dx = 8: the e = 0 kink in ~2 s
+
+
+# ------------------------------------------------------------------ success that is not success
+def test_e0_oscillon_that_collapses_to_the_flat_layer_is_not_converged():
+    """dr = 2: the core of radius 5 shrinks to no node while settling; the orbit found is uniform."""
+    lat = tps.Lattice.axisymmetric(n_nodes=11, r_max=20.0, grid="uniform")
+    sol = tps.solve_oscillon(Gamma=4.1, e=0.0, lattice=lat, r_core=5.0)
+    assert sol.converged is False and sol.success is False
+    assert sol.status == 9 and tps.STATUS[9].startswith("not the orbit asked for")
+    assert not sol.localized and not sol.checks.all_pass
+    assert "no oscillon found" in sol.message and "status 9" in sol.message
+    # it is the uniform orbit: the two ends of the lattice move alike over the period
+    ts = sol.period * np.arange(32) / 32
+    Z = sol.height(ts)
+    assert np.max(np.abs(Z[:, 0] - Z[:, -1])) <= 1e-9 * np.max(np.abs(Z))
+
+
+def test_kink_with_an_unstable_far_field_says_so():
+    """Gamma = 4.1, e = 0.45: the single-bounce flat layer lies outside its stability window."""
+    sol = tps.solve_kink(Gamma=4.1, e=0.45)
+    lo, hi = tps.FlatLayer.stability_window(0.45, 2)
+    assert not lo <= 4.1 <= hi                                   # the reference: the closed-form window
+    rho = float(np.max(np.abs(sol.flat.floquet_multipliers())))
+    assert rho == pytest.approx(5.78, abs=5e-3)
+    assert sol.converged                                           # the kink exists ...
+    assert sol.far_field_stable is False and sol.checks.far_field_stable is False   # ... but cannot be observed
+    assert f"|mu| = {rho:.3g} > 1" in sol.message and "unstable" in sol.message
+    np.testing.assert_array_equal(np.abs(sol.far_field_multipliers), np.abs(sol.flat.floquet_multipliers()))
+
+
+def test_kink_with_a_stable_far_field_says_so():
+    sol = tps.solve_kink()                                        # Gamma = 2.5, e = 0.45: inside the window
+    lo, hi = tps.FlatLayer.stability_window(0.45, 2)
+    assert lo <= sol.Gamma <= hi
+    assert sol.converged and sol.far_field_stable is True and "unstable" not in sol.message
+
+
+# ------------------------------------------------------------------ Ctrl-C at every stage of the e = 0 kink
+STAGES = ["settle", "shooting", "multipliers", "tps", "checks"]
+
+
+@pytest.mark.parametrize("stage", STAGES)
+def test_e0_kink_interrupted_at_every_stage_returns_status_5_with_the_state_so_far(stage):
+    seen = []
+
+    def stop_at(state):
+        seen.append(state.stage)
+        if state.stage == stage:
+            raise KeyboardInterrupt
+
+    sol = tps.solve_kink(Gamma=4.1, e=0.0, lattice=_kink_lattice(), callback=stop_at)
+    assert sol.status == 5 and sol.converged is False and sol.success is False
+    assert sol.interrupted_stage == stage and "interrupted (KeyboardInterrupt)" in sol.message
+    assert seen[-1] == stage
+    before = STAGES[:STAGES.index(stage)]
+    assert [s for s in STAGES if s in seen] == before + [stage]     # the stages run in order, none after
+    # the state so far is kept: the settling run after "settle", the orbit after "shooting", ...
+    assert (sol.run is not None) == (stage != "settle")
+    assert (sol.orbit is not None) == (stage not in ("settle", "shooting"))
+    if stage in ("tps", "checks"):
+        assert sol.multipliers is not None and abs(sol.multipliers[0]) < 1.0
+        assert sol.orbit.converged
+    if stage == "checks":
+        assert sol.residual <= 1e-10 and not sol.fda_check.passed
+    assert not sol.checks.all_pass
+
+
+def test_e0_kink_without_interrupt_reports_every_stage_and_converges():
+    seen = []
+    sol = tps.solve_kink(Gamma=4.1, e=0.0, lattice=_kink_lattice(), callback=lambda s: seen.append(s.stage))
+    assert sol.converged and sol.status == 0 and sol.checks.all_pass and sol.far_field_stable
+    assert [s for s in STAGES if s in seen] == STAGES
+
+
+class _Interrupting(Problem):
+    """x = p: a problem whose first residual is interrupted (the user's Ctrl-C during the start)."""
+
+    def __init__(self, p=1.0, calls=None):
+        self.p = p
+        self.calls = [0] if calls is None else calls
+
+    @property
+    def parameters(self):
+        return {"p": self.p}
+
+    def at(self, **values):
+        return _Interrupting(values.get("p", self.p), self.calls)
+
+    def residual(self, x):
+        self.calls[0] += 1
+        if self.calls[0] == 1:
+            raise KeyboardInterrupt
+        return np.array([x[0] - self.p]), None
+
+    def jacobian(self, x, F, data):
+        return np.eye(1)
+
+
+def test_continue_branch_interrupted_while_correcting_its_start_returns_status_5():
+    br = tps.continue_branch((_Interrupting(1.0), np.array([1.0])), "p", (0.0, 2.0), multipliers=False)
+    assert br.status == 5 and "interrupted" in br.message
+    assert br.parameter_values.shape == (0,) and br.states.shape == (0, 1)
+
+
+# ------------------------------------------------------------------ stability that agrees with the multipliers
+def test_branch_without_multipliers_is_unknown_not_unstable():
+    """An impact-and-stick branch computes no multipliers: every point is "unknown"."""
+    from tps_solver.solvers.tps.stick import solve_stick_flat
+
+    sol = solve_stick_flat(4.1, perturbation=1e-3)
+    br = tps.continue_branch(sol, "Gamma", (4.0, 4.2), max_points=3)
+    assert br.parameter_values.size == 3 and np.all(np.isnan(br.multipliers))
+    assert br.stability.tolist() == ["unknown"] * 3
+    assert "stability unknown at 3 of 3 points" in br.message
+
+
+def test_branch_with_multipliers_is_stable_where_every_multiplier_is_inside():
+    """Flat layer, e = 0.45: stable below the closed-form period-doubling Gamma, unstable above."""
+    br = tps.continue_branch(tps.FlatLayer(2.5, 2, e=0.45), "Gamma", (2.3, 2.7))
+    hi = tps.FlatLayer.stability_window(0.45, 2)[1]
+    inside = br.parameter_values < hi - 1e-6
+    outside = br.parameter_values > hi + 1e-6
+    assert np.all(br.stability[inside] == "stable") and np.all(br.stability[outside] == "unstable")
+    assert np.all(br.stable == (br.stability == "stable"))
