@@ -138,3 +138,124 @@ def test_branch_with_multipliers_is_stable_where_every_multiplier_is_inside():
     outside = br.parameter_values > hi + 1e-6
     assert np.all(br.stability[inside] == "stable") and np.all(br.stability[outside] == "unstable")
     assert np.all(br.stable == (br.stability == "stable"))
+
+
+# ------------------------------------------------------------------ plots of every periodic result
+@pytest.fixture(scope="module")
+def e0_kink():
+    return tps.solve_kink(Gamma=4.1, e=0.0, lattice=_kink_lattice())
+
+
+def _periodic_results(kink):
+    cycle = tps.solve_lattice_cycle(tps.Lattice.planar(n_nodes=8, length=140.0), Gamma=2.5, M=2, e=0.45)
+    return [kink, kink.orbit, cycle, tps.solve_kink(n_harmonics=8)]
+
+
+def _touch_phases(fig, T=1.0):
+    """Per node position: the touch-and-go phases t/T mod 1 drawn in the first panel."""
+    ax = fig.axes[0]
+    dots = next(c for c in ax.collections if c.get_label() in ("touch-and-go", "impact"))
+    xy = np.asarray(dots.get_offsets())
+    order = np.lexsort((np.mod(xy[:, 1], 1.0), xy[:, 0]))
+    return xy[order, 0], np.mod(xy[order, 1], 1.0)
+
+
+def test_orbit_and_contact_figures_accept_every_periodic_result(e0_kink):
+    import matplotlib.pyplot as plt
+    from tps_solver.plotting import TIME_LABEL, contact_pattern_figure, orbit_period_figure, solution_figures
+
+    for res in _periodic_results(e0_kink):
+        for fig in (orbit_period_figure(res, n_times=8, n_snapshots=2), contact_pattern_figure(res, zoom=False),
+                    *solution_figures(res, n_times=8).values()):
+            labels = [ax.get_ylabel() for ax in fig.axes] + [ax.get_title() for ax in fig.axes]
+            assert any("$t/T$" in label for label in labels), (type(res).__name__, labels)   # one time axis: t/T
+            assert not any(r"\omega t" in label for label in labels), (type(res).__name__, labels)
+            if fig.axes[0].name != "polar" and "profile" not in " ".join(labels):
+                assert TIME_LABEL in labels
+            plt.close(fig)
+
+
+def test_contact_pattern_of_the_tps_kink_matches_its_shooting_orbit(e0_kink):
+    """Two solvers, one figure: the TPS's touch-and-go phases against the FDA shooting orbit's events."""
+    import matplotlib.pyplot as plt
+    from tps_solver.plotting import contact_pattern_figure
+
+    a, b = contact_pattern_figure(e0_kink, zoom=False), contact_pattern_figure(e0_kink.orbit, zoom=False)
+    (xa, pa), (xb, pb) = _touch_phases(a), _touch_phases(b)
+    plt.close(a)
+    plt.close(b)
+    assert xa.size == xb.size == e0_kink.nodes.size                  # one touch-and-go per node and period
+    np.testing.assert_array_equal(xa, xb)
+    assert np.max(np.abs((pa - pb + 0.5) % 1.0 - 0.5)) < 1e-8
+
+
+def test_plots_refuse_what_they_cannot_draw_with_a_reason(e0_kink, tmp_path):
+    from tps_solver.plotting import plot_contact_pattern, plot_orbit_period, plot_solution
+
+    with pytest.raises(ValueError, match="periodic result of the package.*FlatLayer"):
+        plot_orbit_period(tps.FlatLayer(2.5, e=0.45), tmp_path / "x.png")
+
+    def stop(state):
+        if state.stage == "shooting":
+            raise KeyboardInterrupt
+
+    cut = tps.solve_kink(Gamma=4.1, e=0.0, lattice=_kink_lattice(), callback=stop)
+    assert cut.status == 5
+    for plot in (plot_orbit_period, plot_contact_pattern):
+        with pytest.raises(ValueError, match="holds no fields to draw.*status 5"):
+            plot(cut, tmp_path / "x.png")
+    with pytest.raises(ValueError, match="holds no fields to draw"):
+        plot_solution(cut, str(tmp_path))
+
+
+# ------------------------------------------------------------------ the CLI reaches the e = 0 results
+def test_cli_e0_kink_runs_on_a_lattice(capsys):
+    from tps_solver.cli import main
+
+    assert main(["kink", "--gamma", "4.1", "--e", "0", "--dx", "8"]) == 0
+    out = capsys.readouterr().out
+    assert "kink (e = 0): Gamma = 4.1" in out and "lattice of 6 nodes, spacing 8" in out
+    assert "converged?            True (status 0)" in out and "all checks            True" in out
+    ref = tps.solve_kink(Gamma=4.1, e=0.0, lattice=_kink_lattice())      # the library call it stands for
+    assert f"{abs(ref.multipliers[0]):.6f}" in out
+
+
+def test_cli_e0_oscillon_runs_and_says_when_none_exists(capsys):
+    from tps_solver.cli import main
+
+    assert main(["oscillon", "--gamma", "4.1", "--e", "0", "--dx", "2", "--r-max", "20", "--r-core", "5"]) == 1
+    out = capsys.readouterr().out
+    assert "converged?            False (status 9)" in out and "no oscillon found" in out
+
+
+def test_cli_e0_refuses_single_contact_options_by_flag(capsys):
+    from tps_solver.cli import main
+
+    assert main(["kink", "--gamma", "4.1", "--e", "0", "--nodes", "5"]) == 2
+    assert "--nodes applies to the single-contact TPS" in capsys.readouterr().err
+    assert main(["kink", "--e", "0.45", "--dx", "2"]) == 2
+    assert "--dx applies to --e 0 only" in capsys.readouterr().err
+
+
+def test_cli_lattice_kink_prints_settling_as_a_fraction_not_as_newton(capsys):
+    from tps_solver.cli import main
+
+    assert main(["lattice-kink", "--dx", "8", "--periods", "2", "--multipliers", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "settling: 100 % of 2 periods" in out
+    assert "= nan" not in out
+    newton = [ln for ln in out.splitlines() if ln.strip().startswith("Newton")]
+    assert newton and all("nan" not in ln for ln in newton)
+
+
+def test_progress_bar_moves_and_names_its_stage():
+    """States without a fraction (Newton steps) advance a step count; each stage is named."""
+    pytest.importorskip("tqdm")
+    from tps_solver.core.progress import Progress, progress_state
+
+    with Progress("kink TPS") as bar:
+        for k in range(3):
+            bar(progress_state("coupling continuation", k, residual=10.0 ** -k))
+        assert bar.bar.n == 3 and bar.bar.total is None and "[coupling continuation]" in bar.bar.desc
+        bar(progress_state("settle", 0, fraction=0.25))
+        assert bar.bar.n == 25 and bar.bar.total == 100 and "[settle]" in bar.bar.desc
