@@ -259,3 +259,74 @@ def test_progress_bar_moves_and_names_its_stage():
         assert bar.bar.n == 3 and bar.bar.total is None and "[coupling continuation]" in bar.bar.desc
         bar(progress_state("settle", 0, fraction=0.25))
         assert bar.bar.n == 25 and bar.bar.total == 100 and "[settle]" in bar.bar.desc
+
+
+# ------------------------------------------------------------------ check_stability agrees with the multipliers
+def test_check_stability_of_a_shooting_kink_measures_its_leading_multiplier(e0_kink):
+    """|mu_1| = 0.031 (dense period-map Jacobian) against the decay of a time-stepped perturbation."""
+    orbit = e0_kink.orbit
+    mu1 = abs(orbit.multipliers[0])
+    assert mu1 == pytest.approx(0.0313, abs=1e-3)
+    chk = tps.check_stability(orbit)                          # default 20 periods: decays to round-off in ~5
+    assert np.isfinite(chk.growth_factor)
+    assert chk.growth_factor == pytest.approx(mu1, rel=0.05)
+    assert chk.stable and chk.verdict == "stable" and "agrees with the orbit's multipliers" in chk.message
+
+
+def test_check_stability_accepts_a_stick_solution(e0_kink):
+    chk = tps.check_stability(e0_kink, periods=8)
+    assert chk.lattice is e0_kink.lattice                    # checked on its own lattice: no mismatch
+    assert chk.defects[-1].max() <= 1e-10                     # the TPS orbit is an orbit of the FDA
+    assert chk.growth_factor == pytest.approx(abs(e0_kink.multipliers[0]), rel=0.05)
+    assert chk.verdict == "stable"
+    np.testing.assert_array_equal(chk.orbit_multipliers, e0_kink.multipliers)
+
+
+def test_check_stability_refuses_a_verdict_against_the_multipliers(e0_kink):
+    """An orbit whose multipliers say unstable while the measured perturbation decays: "unknown", and why."""
+    orbit = tps.solvers.shooting.periodic.ShootingOrbit(e0_kink.orbit)
+    orbit.multipliers = np.array([1.5, 0.1], dtype=complex)
+    chk = tps.check_stability(orbit, periods=6)
+    assert chk.growth_factor < 0.1 and chk.verdict == "unknown" and not chk.stable
+    assert "disagree" in chk.verdict_reason and "1.5" in chk.verdict_reason
+
+
+def test_check_stability_of_the_continuum_kink_says_why_it_cannot_decide():
+    """The continuum TPS kink is not an orbit of the FDA lattice: its defect decays, it is no instability."""
+    sol = tps.solve_kink()
+    chk = tps.check_stability(sol, periods=5)
+    assert chk.growth_factor < 1.0                           # a perturbation decays ...
+    assert chk.defects[-1].max() < 0.1 * chk.defects[0].max()   # ... and the run settles
+    assert chk.verdict == "unknown" and "not stable" not in chk.message
+    assert "not a periodic orbit of this lattice" in chk.verdict_reason
+
+
+# ------------------------------------------------------------------ defaults that work for every e
+def test_cli_without_flags_computes_the_library_defaults(capsys):
+    from tps_solver.cli import main
+
+    sol = tps.solve_kink()
+    assert main(["kink"]) == 0
+    out = capsys.readouterr().out
+    assert f"Gamma = {sol.Gamma:g}," in out and f"nodes = {sol.nodes.size}," in out
+    assert f"residual max|F|       {sol.residual:.3e}" in out
+
+
+def test_solve_kink_at_e0_uses_a_Gamma_where_e0_kinks_exist():
+    """No Gamma given: 4.1 for e = 0 (2.5 has no sticking f/2 orbit: the closed form's window)."""
+    from tps_solver.core import defaults
+
+    with pytest.raises(ValueError, match="3.857 <= Gamma <= 6.362"):
+        tps.solve_kink(Gamma=defaults.GAMMA, e=0.0, lattice=_kink_lattice())
+    sol = tps.solve_kink(e=0.0, lattice=_kink_lattice())
+    assert sol.Gamma == defaults.GAMMA_STICK == 4.1 and sol.converged and sol.checks.all_pass
+    assert tps.solve_kink(e=0.45).Gamma == defaults.GAMMA == 2.5
+
+
+def test_the_result_types_a_user_meets_are_exported():
+    from tps_solver.core.problem import Problem as P
+    from tps_solver.solvers.shooting.periodic import ShootingOrbit
+    from tps_solver.solvers.tps.stick import StickSolution
+
+    assert tps.ShootingOrbit is ShootingOrbit and tps.StickSolution is StickSolution and tps.Problem is P
+    assert {"ShootingOrbit", "StickSolution", "Problem"} <= set(tps.__all__)

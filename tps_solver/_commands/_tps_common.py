@@ -16,7 +16,8 @@ def flags(geometry):
 def configure(parser, geometry):
     from tps_solver.core import defaults as d
 
-    parser.add_argument("--gamma", type=float, default=d.GAMMA, help=f"plate acceleration Gamma (default {d.GAMMA})")
+    parser.add_argument("--gamma", type=float, default=None,
+                        help=f"plate acceleration Gamma (default {d.GAMMA}; {d.GAMMA_STICK} with --e 0)")
     parser.add_argument("--e", type=float, default=None,
                         help=f"restitution (default {d.E}, a stable interior flat layer, unless --t0 is given)")
     parser.add_argument("--t0", type=float, default=None,
@@ -24,7 +25,8 @@ def configure(parser, geometry):
     parser.add_argument("--M", type=int, default=d.M, help=f"subharmonic order (default {d.M})")
     parser.add_argument("--N", type=int, default=d.N_HARMONICS, help=f"number of harmonics (default {d.N_HARMONICS})")
     parser.add_argument("--nodes", type=int, default=None,
-                        help=f"nodes on the half-line / radius (default {d.N_NODES}, spacing {d.SPACING:g}: "
+                        help=f"nodes on the half-line / radius of the single-contact TPS (default {d.N_NODES}, "
+                             f"spacing {d.SPACING:g}: "
                              "single-contact solutions need spacing above about 11)")
     size = "--length" if geometry == "planar" else "--r-max"
     default_size = d.HALF_LENGTH if geometry == "planar" else d.R_MAX

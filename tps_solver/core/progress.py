@@ -146,7 +146,7 @@ class Progress:
             self.bar.update(1)
             self.bar.set_postfix_str(text, refresh=True)
         else:
-            _LOG.info("%s [%s]: %s", self.desc, state.get("stage"), text)
+            _LOG.info("%s: %s [%s]", self.desc, text, state.get("stage"))
 
     def newton(self, iteration, tc, residual):
         """The display of one Newton step given positionally (as ``self(state)`` of stage "newton")."""
@@ -166,7 +166,7 @@ class Progress:
             self.bar.refresh()
         elif frac - self._last_log >= 0.1 or frac >= 1.0 > self._last_log:
             self._last_log = frac
-            _LOG.info("%s%s: %.0f %% done", self.desc, f" [{self._stage}]" if self._stage else "", 100 * frac)
+            _LOG.info("%s: %.0f %% done%s", self.desc, 100 * frac, f" [{self._stage}]" if self._stage else "")
 
     def update(self, n=1):
         """``n`` more items done (counting mode, out of ``total``)."""

@@ -377,7 +377,7 @@ def _inelastic_keywords(what, solver, max_iter, tol, options):
     return kw
 
 
-def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
+def solve_kink(Gamma=None, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
                tc_initial=None, *, half_length=None, n_nodes=defaults.N_NODES, tol=defaults.TOL,
                max_iter=defaults.MAX_ITER, scheme="newton",
                paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
@@ -402,8 +402,10 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
 
     Parameters
     ----------
-    Gamma : float
-        Plate acceleration.
+    Gamma : float, optional
+        Plate acceleration.  Default: ``defaults.GAMMA = 2.5`` for e > 0, and
+        ``defaults.GAMMA_STICK = 4.1`` for e = 0, where the sticking f/2 far field exists
+        (3.857 <= Gamma <= 6.362; at 2.5 the e = 0 layer has no f/2 orbit).
     M : int
         Subharmonic order (M = 2 is f/2).
     e, t0 : float or None
@@ -502,7 +504,9 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         from tps_solver.solvers.tps.stick_kink import solve_stick_kink
         if start is not None:
             kw["start"] = start
+        Gamma = defaults.GAMMA_STICK if Gamma is None else Gamma
         return solve_stick_kink(Gamma, M, lattice=lattice, callback=callback, **kw)
+    Gamma = defaults.GAMMA if Gamma is None else Gamma
     if start is not None:
         raise ValueError("start applies to the e = 0 kink only ('shooting' or 'anticontinuum', "
                          "see solve_stick_kink)")
@@ -525,7 +529,7 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
                   check_choice(symmetry, "symmetry", ("kink", "even")))
 
 
-def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
+def solve_oscillon(Gamma=None, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
                    tc_initial=None, *, r_max=defaults.R_MAX, n_nodes=defaults.N_NODES,
                    r_core=defaults.R_CORE, tol=defaults.TOL, max_iter=defaults.MAX_ITER,
                    scheme="newton", paper_sign=1, min_shift=False, continuation=True,
@@ -576,7 +580,9 @@ def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmon
         from tps_solver.solvers.tps.stick_kink import solve_stick_oscillon
         if r_core != defaults.R_CORE:
             kw["core_radius"] = r_core
+        Gamma = defaults.GAMMA_STICK if Gamma is None else Gamma
         return solve_stick_oscillon(Gamma, M, lattice=lattice, callback=callback, **kw)
+    Gamma = defaults.GAMMA if Gamma is None else Gamma
     if lattice is not None:
         raise ValueError("lattice applies to the e = 0 oscillon only; for single-contact oscillons on a "
                          "lattice use solve_lattice(lattice, ...)")
