@@ -730,7 +730,9 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     callback : callable, optional
         ``callback(state)`` after each accepted point (a
         :class:`~tps_solver.core.progress.ProgressState`: stage ``"continuation"``,
-        ``iteration`` k, ``parameter``, ``parameter_value``, ``stable``).
+        ``iteration`` k, ``parameter``, ``parameter_value``, ``stable``: bool, None where no
+        multiplier was computed).  A ``KeyboardInterrupt`` -- also while the start is corrected --
+        returns ``status = 5`` with the points so far (none if the start was not done).
 
     Returns
     -------

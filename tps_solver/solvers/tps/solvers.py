@@ -456,7 +456,9 @@ def solve_kink(Gamma=None, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N
         ``callback(state)`` after each Newton step (each accepted point under
         continuation; each sweep of a fixed-point scheme), a
         :class:`~tps_solver.core.progress.ProgressState` with ``stage``, ``iteration``, ``residual`` and ``tc``.
-        A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate.
+        A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate (for
+        ``e = 0``: from any stage, settle, shooting, multipliers, tps or checks, each announced
+        to the callback; see :func:`~tps_solver.solvers.tps.stick_kink.solve_stick_kink`).
     lattice : tps_solver.Lattice, keyword-only
         For ``e = 0`` only: the planar Neumann lattice of the inelastic kink.
     start : {"shooting", "anticontinuum"}, keyword-only
@@ -474,7 +476,11 @@ def solve_kink(Gamma=None, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N
         that ends with what to try when it did not converge, ``nodes`` (the nodes
         solved) and ``nodes_requested`` (the grid asked for; they differ only when a
         continuation stopped at ``coupling < 1``).  ``checks.all_pass`` is False
-        unless the run converged.
+        unless the run converged.  ``far_field_stable`` says whether the far-field flat layer is
+        stable (its multipliers in ``far_field_multipliers``); when it is not, the message says
+        so, and the orbit, though converged, cannot be observed.  For ``e = 0``, an orbit that
+        converged to the uniform flat layer (no front left on the lattice) has ``converged``
+        False and ``status = 9``.
 
     Examples
     --------

@@ -94,8 +94,14 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         it, which takes no Newton step when the orbit is accurate).  Slower on these lattices:
         7 s for 6 nodes, 36 s for 10 (validation/stick_discovery.py).
     callback : callable, optional
-        ``callback(state)`` after every Newton step of the shooting and of the TPS (with
-        ``start="anticontinuum"``: after every coupling of the path).
+        ``callback(state)`` at the start of every stage -- ``"settle"``, ``"shooting"``,
+        ``"multipliers"``, ``"tps"``, ``"checks"`` (``state.stage``) -- and within them: once per
+        forcing cycle of the settling run, after every Newton step of the shooting and of the TPS
+        (with ``start="anticontinuum"``: after every coupling of the path); the inner call's own
+        stage is ``state.substage``.  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the callback)
+        in any stage returns ``status = 5`` with the state so far: ``run`` (the settling run),
+        ``orbit`` (the shooting orbit), ``multipliers``, the TPS fields once the TPS has run, and
+        ``interrupted_stage``.
 
     Returns
     -------
@@ -109,7 +115,10 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         front left the lattice), ``core_nodes`` (tuple of int: nodes on the shifted phase at
         the start and after the settling run) and ``seconds`` (Bunch of the stages'
         wall-clock times).  ``checks.all_pass`` is False unless the TPS converged, its
-        physical checks pass, the FDA check passes and the orbit is localized.
+        physical checks pass, the FDA check passes and the orbit is localized.  An orbit that
+        converged to the uniform flat layer is not the kink asked for: ``converged`` False and
+        ``status = 9``.  ``far_field_stable`` (bool) and ``far_field_multipliers`` state whether
+        the far field is stable (:func:`~tps_solver.core.orbit.far_field`).
 
     Raises
     ------
