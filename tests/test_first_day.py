@@ -56,7 +56,7 @@ STAGES = ["settle", "shooting", "multipliers", "tps", "checks"]
 
 
 @pytest.mark.parametrize("stage", STAGES)
-def test_e0_kink_interrupted_at_every_stage_returns_status_5_with_the_state_so_far(stage):
+def test_e0_kink_interrupted_at_every_stage_returns_status_5_with_the_state_so_far(stage, tmp_path):
     seen = []
 
     def stop_at(state):
@@ -79,6 +79,8 @@ def test_e0_kink_interrupted_at_every_stage_returns_status_5_with_the_state_so_f
     if stage == "checks":
         assert sol.residual <= 1e-10 and not sol.fda_check.passed
     assert not sol.checks.all_pass
+    back = tps.load(sol.save(tmp_path / "cut"))                   # the state so far saves and loads
+    assert back.status == 5 and back.interrupted_stage == stage and back.message == sol.message
 
 
 def test_e0_kink_without_interrupt_reports_every_stage_and_converges():
@@ -330,3 +332,21 @@ def test_the_result_types_a_user_meets_are_exported():
 
     assert tps.ShootingOrbit is ShootingOrbit and tps.StickSolution is StickSolution and tps.Problem is P
     assert {"ShootingOrbit", "StickSolution", "Problem"} <= set(tps.__all__)
+
+
+def test_sweep_map_says_it_counts_any_period_2_attractor(monkeypatch, tmp_path, capsys):
+    """Gamma 2.8, e 0.15: (19) has no single-bounce f/2 orbit, yet every start reaches a period-2 attractor."""
+    from matplotlib.figure import Figure
+    from tps_solver.cli import main
+
+    with pytest.raises(ValueError, match="Gamma is too small for a period-2 orbit"):
+        tps.FlatLayer(2.8, 2, e=0.15, pattern="bounce")
+    saved = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kw: saved.append(fig))
+    assert main(["sweep", "basins", "--gamma", "2.8", "2.8", "0.1", "--e", "0.15", "0.15", "0.1", "--samples", "4",
+                 "--serial", "--plot", str(tmp_path / "map.png")]) == 0
+    out = capsys.readouterr().out
+    assert "period-2 (f/2) attractor of any contact pattern" in out and "1.000" in out
+    title = saved[0].axes[0].get_title()
+    assert "any f/2 (period-2) attractor" in title and "not only the flat single-bounce orbit" in title
+    assert "basin of the flat" not in title

@@ -55,7 +55,7 @@ def _drawable(orbit, what):
     t_start = float(orbit.get("t_start", 0.0) if hasattr(orbit, "get") else getattr(orbit, "t_start", 0.0))
     try:
         orbit.height(np.array([t_start]))
-    except (AttributeError, KeyError, TypeError) as exc:
+    except (AttributeError, KeyError, TypeError, IndexError, ValueError) as exc:
         raise ValueError(f"{what}: this {type(orbit).__name__} holds no fields to draw (status "
                          f"{orbit.get('status', '?')}: {str(orbit.get('message', ''))[:200]}); "
                          f"missing {exc}") from None

@@ -283,9 +283,13 @@ def _stopped(stage, lattice, flat, what, state, seconds, clock):
     """Status 5: the state so far (settling run, shooting orbit, TPS iterate, FDA check)."""
     sol = state.get("sol")
     if sol is None:
+        n = lattice.n_nodes            # no TPS fields yet: empty ones, so the result saves and loads
         sol = StickSolution(nodes=np.asarray(lattice.nodes, float).copy(), lattice=lattice, Gamma=flat.Gamma,
                             e=0.0, M=flat.M, period=flat.period, flat=flat, nit=0, residual=np.nan,
-                            residual_history=np.empty(0), checks=Bunch(all_pass=False))
+                            residual_history=np.empty(0), checks=Bunch(all_pass=False),
+                            contact_times=np.empty((n, 0)), contact_kinds=np.empty((n, 0), dtype="<U6"),
+                            liftoff_times=np.empty((n, 0)), impulses=np.empty((n, 0)),
+                            w_hat=np.empty((0, n), dtype=complex), K=0)
     orbit = state.get("orbit")
     mu = state.get("multipliers")
     done = [name for name in ("settle", "shooting", "multipliers", "tps", "checks") if name in state["done"]]
