@@ -350,3 +350,12 @@ def test_sweep_map_says_it_counts_any_period_2_attractor(monkeypatch, tmp_path, 
     title = saved[0].axes[0].get_title()
     assert "any f/2 (period-2) attractor" in title and "not only the flat single-bounce orbit" in title
     assert "basin of the flat" not in title
+
+
+def test_e0_kink_by_anticontinuum_interrupted_before_its_tps_returns_status_5():
+    def stop(state):
+        if state.stage == "tps":
+            raise KeyboardInterrupt
+
+    sol = tps.solve_kink(Gamma=4.1, e=0.0, lattice=_kink_lattice(), start="anticontinuum", callback=stop)
+    assert sol.status == 5 and sol.interrupted_stage == "tps" and sol.orbit is None and not sol.converged
