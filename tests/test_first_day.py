@@ -358,3 +358,15 @@ def test_e0_kink_by_anticontinuum_interrupted_before_its_tps_returns_status_5():
 
     sol = tps.solve_kink(Gamma=4.1, e=0.0, lattice=_kink_lattice(), start="anticontinuum", callback=stop)
     assert sol.status == 5 and sol.interrupted_stage == "tps" and sol.orbit is None and not sol.converged
+
+
+def test_cli_branch_without_multipliers_says_unknown_not_unstable(capsys):
+    from tps_solver.cli import main
+
+    code = main(["branch", "cycle", "--nodes", "4", "--length", "60", "--parameter", "Gamma", "--bounds", "2.45",
+                 "2.55", "--no-multipliers", "--one-side"])
+    out = capsys.readouterr().out
+    points = [ln for ln in out.splitlines() if ln.strip().startswith("point")]
+    assert code == 0 and points
+    assert all(ln.endswith("stability unknown (no multipliers)") for ln in points)
+    assert "stability unknown at" in out
