@@ -33,15 +33,25 @@ What is measured
     disagree the map has a kink at the orbit; ``differentiable = False`` and only
     the uniform-mode multipliers (flat layers) are reported.
 
-* **verdict** -- ``stable`` is True when the measured growth factor is below 1
-  and the last defect is below ``defect_tol``; the message states the lattice
-  cut-off in force (docs/design.md, hazard 8): a verdict on a lattice with point impacts is a
+* **verdict** -- ``verdict`` is ``"stable"`` when the measured growth factor is below 1
+  and the last defect is below ``defect_tol``, ``"unstable"`` when the growth factor is 1 or
+  more, and ``"unknown"`` otherwise, with the reason in ``verdict_reason`` and the message:
+  interrupted, or the run does not stay on the orbit (a continuum TPS orbit is not an orbit of
+  the lattice: its defect decays while the run settles onto a nearby lattice orbit), or the
+  verdict would disagree with the multipliers the orbit carries (a shooting orbit's, an
+  impact-and-stick solution's) or with the full period map's (``jacobian=True``).  The growth
+  is fitted on the periods above round-off (a perturbation of a strongly contracting orbit
+  reaches round-off, or exactly 0 on sticking nodes, within a few periods; fitting there gave
+  ``nan`` or a growth of 1 that says nothing).  ``stable`` is ``verdict == "stable"``.  The
+  message states the lattice cut-off in force (docs/design.md, hazard 8): a verdict on a lattice with point impacts is a
   verdict for that lattice spacing, not a converged statement.  When a flat layer
   that is stable by its own Floquet multipliers is found "not stable" with point
   impacts, the message *starts* by saying that this is the grid-scale instability
   of point impacts (``grid_instability = True``) and points to the soft contact.
 
-Only periodic orbits are checked: a TPS result with ``converged = False`` is refused
+Every periodic result of the package is accepted (``PeriodicSolution``, ``LatticeCycle``,
+``ShootingOrbit``, ``StickSolution``; the last three on their own lattice).  Only periodic orbits
+are checked: a result with ``converged = False`` is refused
 (``ValueError``), since its fields are not a periodic orbit of anything.
 
 Cost and interrupts: ``callback(state)`` receives a
