@@ -130,6 +130,13 @@ def test_branch_without_multipliers_is_unknown_not_unstable():
     assert br.parameter_values.size == 3 and np.all(np.isnan(br.multipliers))
     assert br.stability.tolist() == ["unknown"] * 3
     assert "stability unknown at 3 of 3 points" in br.message
+    import matplotlib.pyplot as plt
+
+    fig = br.plot()
+    labels = [line.get_label() for line in fig.axes[0].lines]
+    plt.close(fig)
+    assert "stability unknown (no multipliers)" in labels
+    assert not any(len(line.get_xdata()) for line in fig.axes[0].lines if line.get_label() == "unstable")
 
 
 def test_branch_with_multipliers_is_stable_where_every_multiplier_is_inside():

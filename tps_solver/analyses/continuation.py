@@ -226,9 +226,12 @@ class Branch(Bunch):
         rho = np.nanmax(np.abs(self.multipliers), axis=1) if self.multipliers.size else np.full(p.size, np.nan)
         ax.plot(p, rho, "-", color="0.7", lw=0.8)
         stability = np.asarray(self.get("stability", np.where(self.stable, "stable", "unstable")))
-        for mask, style, label in ((stability == "stable", "o", "stable"), (stability == "unstable", "x", "unstable"),
-                                   (stability == "unknown", ".", "unknown")):
+        for mask, style, label in ((stability == "stable", "o", "stable"), (stability == "unstable", "x", "unstable")):
             ax.plot(p[mask], rho[mask], style, ms=3, color="C0" if label == "stable" else "C1", label=label)
+        unknown = stability == "unknown"
+        if unknown.any():            # no multiplier there: a rug along the parameter axis, not a |mu|
+            ax.plot(p[unknown], np.full(int(unknown.sum()), 0.03), "|", ms=8, color="0.4",
+                    transform=ax.get_xaxis_transform(), label="stability unknown (no multipliers)")
         for kind, value in self.special_points:
             ax.axvline(value, color="C3" if kind == "fold" else "C2", lw=0.8, ls=":")
             ax.annotate(kind.replace("_", " "), (value, 1.0), rotation=90, fontsize=7, va="bottom")
