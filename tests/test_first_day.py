@@ -377,3 +377,10 @@ def test_cli_branch_without_multipliers_says_unknown_not_unstable(capsys):
     assert code == 0 and points
     assert all(ln.endswith("stability unknown (no multipliers)") for ln in points)
     assert "stability unknown at" in out
+
+
+def test_lattice_kink_states_its_far_field():
+    orb = tps.lattice_kink(_kink_lattice(), Gamma=4.1, e=0.0, periods=2, multipliers=False)
+    flat = tps.FlatLayer(4.1, 2, e=0.0)                      # the sticking f/2 orbit: multipliers 0
+    assert orb.converged and orb.far_field_stable is True
+    np.testing.assert_array_equal(orb.far_field_multipliers, flat.floquet_multipliers())

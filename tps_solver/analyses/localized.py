@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-from tps_solver.core.orbit import STATUS
+from tps_solver.core.orbit import STATUS, far_field
 from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive, check_real
 from tps_solver.core.costs import check_cost
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
@@ -205,6 +205,9 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
         note += ("the phase-shifted region did not survive: the converged orbit is uniform (the flat "
                  "layer), not a localized state; converged = False, status 9 (not the orbit asked for). ")
         orb.update(converged=False, success=False, status=9, status_text=STATUS[9])
+    if hasattr(flat, "floquet_multipliers"):       # point impacts: the flat layer's own multipliers
+        orb.far_field_stable, orb.far_field_multipliers, far_note = far_field(flat)
+        note = far_note + note
     if note:
         orb.message = note + orb.message
     return orb
