@@ -79,8 +79,10 @@ def test_one_set_of_defaults_api_cli_demo():
         parser = argparse.ArgumentParser()
         _tps_common.configure(parser, geometry)
         args = parser.parse_args([])
+        # --nodes, --length / --r-max and --gamma are None unless given: the command resolves them to the
+        # library's defaults for the model asked for (the single-contact grid, or the e = 0 lattice)
         assert (args.nodes, args.N, args.size, args.gamma, args.M) == (
-            defaults.N_NODES, defaults.N_HARMONICS, size, defaults.GAMMA, defaults.M)
+            None, defaults.N_HARMONICS, None, None, defaults.M)
         assert args.e in (None, defaults.E) and args.t0 is None
     parser = argparse.ArgumentParser()
     demo.configure(parser)

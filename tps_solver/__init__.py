@@ -18,7 +18,9 @@ Public API (see ``README.md`` for a tour):
 * :func:`simulate`, :data:`METHODS` -- the event-driven FDA, eqs. (51)-(63);
 * :class:`SoftFlatOrbit` -- the flat layer of the soft-contact model;
 * :class:`PeriodicOrbit`, :data:`STATUS`, :class:`ContactPattern` -- the vocabulary of every periodic
-  result;
+  result; :class:`ShootingOrbit` and :class:`StickSolution`, the results of shooting and of the
+  impact-and-stick TPS; :class:`Problem`, the problem protocol of the one Newton and of
+  :func:`continue_branch`;
 * :func:`check_stability` -- hands a limit cycle to the FDA;
 * :func:`find_periodic_orbit` -- periodic orbits of any contact pattern by shooting;
 * :func:`lattice_kink`, :func:`lattice_oscillon`, :func:`front_width` -- kinks and oscillons of
@@ -78,6 +80,9 @@ _LAZY = {
     "invasion_speed": "analyses.fronts",
     "solve_stick_flat": "solvers.tps.stick",
     "solve_stick_lattice": "solvers.tps.stick",
+    "StickSolution": "solvers.tps.stick",
+    "ShootingOrbit": "solvers.shooting.periodic",
+    "Problem": "core.problem",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

@@ -10,8 +10,13 @@ r"""Figures (matplotlib is imported only when a function is called; the backend 
   (node position vs time: flying, touch-and-go instants, stuck intervals).
 
 Every figure has labelled axes with units (heights in plate amplitudes A, velocities in
-:math:`A\omega`, horizontal lengths in viscous lengths, time in units of :math:`1/\omega`),
-a colour bar wherever colour carries a value, and a title that states the parameters.
+:math:`A\omega`, horizontal lengths in viscous lengths), a colour bar wherever colour carries a
+value, and a title that states the parameters.  Time has one convention in every figure of a
+periodic orbit: :math:`t/T`, in periods :math:`T = 2\pi M/\omega` of the orbit (M forcing cycles).
+
+The figures of a periodic orbit accept every periodic result of the package --
+``PeriodicSolution``, ``LatticeCycle``, ``ShootingOrbit``, ``StickSolution`` -- and refuse
+anything else, or a result without fields to draw, with a ``ValueError`` that says why.
 A TPS result whose continuation ended before full coupling is drawn on the grid that was
 asked for (``nodes_requested``), and its title says so.
 """
@@ -24,6 +29,39 @@ __all__ = ["solution_figures", "plot_solution", "growth_rates_figure", "plot_gro
            "orbit_period_figure", "plot_orbit_period", "contact_pattern_figure", "plot_contact_pattern"]
 
 
+#: The one time axis of the figures of a periodic orbit.
+TIME_LABEL = r"time $t/T$ (periods, dimensionless; $T = 2\pi M/\omega$)"
+
+
+def _geometry(orbit):
+    """``"planar"`` or ``"axisymmetric"`` of any periodic result (its own, or its lattice's)."""
+    geometry = orbit.get("geometry") if hasattr(orbit, "get") else getattr(orbit, "geometry", None)
+    if geometry is None and getattr(orbit, "lattice", None) is not None:
+        geometry = orbit.lattice.geometry
+    if geometry not in ("planar", "axisymmetric"):
+        raise ValueError(f"orbit must be a periodic result of the package (PeriodicSolution, LatticeCycle, "
+                         f"ShootingOrbit, StickSolution) with a geometry or a lattice, got {type(orbit).__name__}")
+    return geometry
+
+
+def _drawable(orbit, what):
+    """Refuse, with the reason, what is not a periodic orbit with fields; return (geometry, t_start)."""
+    missing = [name for name in ("nodes", "period", "height", "velocity", "Gamma", "M")
+               if not hasattr(orbit, name)]
+    if missing:
+        raise ValueError(f"{what} takes a periodic result of the package (PeriodicSolution, LatticeCycle, "
+                         f"ShootingOrbit, StickSolution); {type(orbit).__name__} has no {', '.join(missing)}")
+    geometry = _geometry(orbit)
+    t_start = float(orbit.get("t_start", 0.0) if hasattr(orbit, "get") else getattr(orbit, "t_start", 0.0))
+    try:
+        orbit.height(np.array([t_start]))
+    except (AttributeError, KeyError, TypeError, IndexError, ValueError) as exc:
+        raise ValueError(f"{what}: this {type(orbit).__name__} holds no fields to draw (status "
+                         f"{orbit.get('status', '?')}: {str(orbit.get('message', ''))[:200]}); "
+                         f"missing {exc}") from None
+    return geometry, t_start
+
+
 def _pyplot():
     import matplotlib.pyplot as plt
 
@@ -33,15 +71,26 @@ def _pyplot():
 def _display_nodes(sol):
     """Nodes to draw on: the requested grid when the continuation stopped early (stretched nodes)."""
     req = sol.get("nodes_requested")
-    if req is not None and sol.coupling < 1.0 and np.shape(req) == np.shape(sol.nodes):
+    if req is not None and sol.get("coupling", 1.0) < 1.0 and np.shape(req) == np.shape(sol.nodes):
         return np.asarray(req, dtype=float), True
     return np.asarray(sol.nodes, dtype=float), False
 
 
+def _method(orbit):
+    """A short name of the formulation of a periodic result."""
+    if orbit.get("method") is not None:
+        return f"lattice orbit ({orbit.method})"
+    if orbit.get("formulation"):
+        return str(orbit.formulation).split(" (")[0]
+    return type(orbit).__name__
+
+
 def _header(sol, kind, stretched):
     spacing = float(np.min(np.diff(sol.nodes))) if sol.nodes.size > 1 else float("nan")
-    head = (f"TPS {kind}: $\\Gamma$ = {sol.Gamma:g}, e = {sol.e:.4g}, M = {sol.M}, N = {sol.N}, "
-            f"{sol.nodes.size} nodes")
+    head = (f"TPS {kind}: $\\Gamma$ = {sol.Gamma:g}, e = {sol.e:.4g}, M = {sol.M}, "
+            + (f"N = {sol.N}, " if sol.get("N") is not None else "") + f"{sol.nodes.size} nodes")
+    if sol.get("N") is None:
+        head = f"{_method(sol)}, {kind}: " + head.split(": ", 1)[1]
     if sol.converged:
         state = f"converged, max|F| = {sol.residual:.1e}, spacing {spacing:.3g}"
     else:
@@ -81,14 +130,20 @@ def solution_figures(sol, n_times=160):
     >>> for fig in figs.values():
     ...     plt.close(fig)
     """
+    geometry, t_start = _drawable(sol, "solution_figures")
     plt = _pyplot()
-    kind = "kink" if sol.geometry == "planar" else "oscillon"
+    kind = "kink" if geometry == "planar" else "oscillon"
     space = "x" if kind == "kink" else "r"
     x, stretched = _display_nodes(sol)
     T = sol.period
-    t = np.linspace(0.0, T, n_times)
+    flat = sol.get("flat")
+    if flat is None:
+        from tps_solver.model.flat import FlatLayer
+
+        flat = FlatLayer(sol.Gamma, sol.M, e=sol.e)
+    t = np.linspace(0.0, T, n_times, endpoint=False)
     zeta = sol.height(t)
-    w_rel = sol.velocity(t) - sol.flat.velocity(t)[:, None]
+    w_rel = sol.velocity(t) - flat.velocity(t)[:, None]
     header = _header(sol, kind, stretched)
     xlabel = f"${space}$ (viscous lengths{', requested grid' if stretched else ''})"
     figures = {}
@@ -97,16 +152,16 @@ def solution_figures(sol, n_times=160):
             ("w_minus_W", w_rel, r"$w - W$ (units of $A\omega$)", "RdBu_r", True)):
         fig, ax = plt.subplots(figsize=(7.5, 5.0), layout="constrained")
         vmax = float(np.max(np.abs(data))) if symmetric else None
-        im = ax.pcolormesh(x, t / math.pi, data, shading="gouraud", cmap=cmap,
+        im = ax.pcolormesh(x, t / T, data, shading="gouraud", cmap=cmap,
                            vmin=-vmax if symmetric else None, vmax=vmax)
         fig.colorbar(im, ax=ax, label=label)
         ax.set_xlabel(xlabel)
-        ax.set_ylabel(r"time $\omega t/\pi$ (one period: $2M$)")
+        ax.set_ylabel(TIME_LABEL)
         ax.set_title(header + f"\n{label.split(' (')[0]} over one period", fontsize=9)
         figures[name] = fig
     # snapshots, 8 per period
     ts = np.linspace(0.0, T, 9)[:-1]
-    rel = sol.height(ts) - sol.flat.height(ts)[:, None]
+    rel = sol.height(ts) - flat.height(ts)[:, None]
     if kind == "oscillon":
         # top views of zeta(r) - Z(t) over the disk, as in the paper's polar plots (Fig. 5)
         fig, axes = plt.subplots(2, 4, figsize=(12, 7.2), subplot_kw={"projection": "polar"},
@@ -124,7 +179,7 @@ def solution_figures(sol, n_times=160):
             ax.set_rlabel_position(90)
             ax.set_xlabel(f"$r$ (viscous lengths{', requested grid' if stretched else ''}); "
                           f"rim $r$ = {float(x[-1]):.3g}", fontsize=8)
-            ax.set_title(f"$\\omega t$ = {tk / math.pi:.2f}$\\pi$", fontsize=9, pad=8)
+            ax.set_title(f"$t/T$ = {tk / T:.3g}", fontsize=9, pad=8)
         fig.colorbar(im, ax=axes, shrink=0.8, label=r"$\zeta - Z$ (plate amplitudes $A$)")
         fig.suptitle(header + r" -- top views of $\zeta - Z_{\rm flat}$ (Fig. 5 style)", fontsize=10)
     else:
@@ -135,8 +190,8 @@ def solution_figures(sol, n_times=160):
         from matplotlib.cm import ScalarMappable
         from matplotlib.colors import Normalize
 
-        sm = ScalarMappable(norm=Normalize(0.0, T / math.pi), cmap=cmap)
-        fig.colorbar(sm, ax=ax, label=r"time $\omega t/\pi$ of the profile")
+        sm = ScalarMappable(norm=Normalize(0.0, 1.0), cmap=cmap)
+        fig.colorbar(sm, ax=ax, label=r"time $t/T$ of the profile (periods, dimensionless)")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(r"height $\zeta$ (plate amplitudes $A$)")
         ax.set_title(header + "\nprofiles $\\zeta(x)$ at 8 times per period", fontsize=9)
@@ -190,7 +245,7 @@ def plot_solution(sol, directory, n_times=160, prefix=None):
     True
     """
     plt = _pyplot()
-    prefix = prefix or ("kink" if sol.geometry == "planar" else "oscillon")
+    prefix = prefix or ("kink" if _geometry(sol) == "planar" else "oscillon")
     paths = []
     for name, fig in solution_figures(sol, n_times).items():
         path = os.path.join(directory, f"{prefix}_{name}.png")
@@ -304,11 +359,12 @@ def plot_growth_rates(path, kh_min=1e-2, kh_max=20.0, n_modes=3, nu=1.0, n_point
 def _orbit_header(orbit):
     x = np.asarray(orbit.nodes, dtype=float)
     dx = float(np.min(np.diff(x))) if x.size > 1 else float("nan")
-    space = "x" if orbit.geometry == "planar" else "r"
-    state = (f"converged, max|P(x) - x| = {orbit.residual:.1e}" if orbit.converged
+    geometry = _geometry(orbit)
+    space = "x" if geometry == "planar" else "r"
+    state = (f"converged, max|F| = {orbit.residual:.1e}" if orbit.converged
              else f"NOT converged (status {orbit.status})")
-    head = (f"lattice orbit ({orbit.method}): $\\Gamma$ = {orbit.Gamma:g}, e = {orbit.e:g}, M = {orbit.M}, "
-            f"{x.size} nodes, d{space} = {dx:.3g}, {orbit.geometry}")
+    head = (f"{_method(orbit)}: $\\Gamma$ = {orbit.Gamma:g}, e = {orbit.e:g}, M = {orbit.M}, "
+            f"{x.size} nodes, d{space} = {dx:.3g}, {geometry}")
     return head + "\n" + state, space
 
 
@@ -348,11 +404,13 @@ def orbit_period_figure(orbit, n_times=200, n_snapshots=6):
     (2, 'velocity $w$ (units of $A\\omega$)')
     >>> plt.close(fig)
     """
+    _, t_start = _drawable(orbit, "orbit_period_figure")
     plt = _pyplot()
     x = np.asarray(orbit.nodes, dtype=float)
     T = float(orbit.period)
-    t = orbit.t_start + T * np.arange(n_times) / n_times
-    ts = orbit.t_start + T * np.arange(n_snapshots) / n_snapshots
+    t = t_start + T * np.arange(n_times) / n_times
+    ts = t_start + T * np.arange(n_snapshots) / n_snapshots
+    shift = T * math.floor(t_start / T)      # whole periods: t/T drawn in [0, 2), the forcing phase kept
     # unique sample times (ShootingOrbit.height drops repeated times)
     tt, inv = np.unique(np.concatenate((t, ts)), return_inverse=True)
     zeta, w = orbit.height(tt)[inv], orbit.velocity(tt)[inv]
@@ -362,18 +420,18 @@ def orbit_period_figure(orbit, n_times=200, n_snapshots=6):
     for ax, data, label, cmap in ((axes[0, 0], zeta[:n_times], r"height $\zeta$ (plate amplitudes $A$)", "viridis"),
                                   (axes[0, 1], w[:n_times], r"velocity $w$ (units of $A\omega$)", "RdBu_r")):
         vmax = float(np.max(np.abs(data))) if cmap == "RdBu_r" else None
-        im = ax.pcolormesh(x, t / math.pi, data, shading="nearest", cmap=cmap,
+        im = ax.pcolormesh(x, (t - shift) / T, data, shading="nearest", cmap=cmap,
                            vmin=-vmax if vmax is not None else None, vmax=vmax)
         fig.colorbar(im, ax=ax, label=label)
         ax.set_xlabel(xlabel)
-        ax.set_ylabel(r"time $\omega t/\pi$ (one period from the section)")
+        ax.set_ylabel(TIME_LABEL)
         ax.set_title(label.split(" (")[0] + " (" + label.split(" (")[1], fontsize=9)
     cmap = plt.get_cmap("viridis")
     for ax, data, label in ((axes[1, 0], zeta[n_times:], r"height $\zeta$ (plate amplitudes $A$)"),
                             (axes[1, 1], w[n_times:], r"velocity $w$ (units of $A\omega$)")):
         for k, (tk, prof) in enumerate(zip(ts, data)):
             ax.plot(x, prof, ".-", ms=3, lw=1.2, color=cmap(k / max(1, n_snapshots - 1)),
-                    label=f"$\\omega t$ = {tk / math.pi:.3g}$\\pi$")
+                    label=f"$t/T$ = {(tk - shift) / T:.3g}")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
         ax.legend(fontsize=7)
@@ -421,6 +479,43 @@ def plot_orbit_period(orbit, path, n_times=200, n_snapshots=6, dpi=120):
     return path
 
 
+def _events(orbit):
+    """(t, node, kind, sticking intervals) of one period of any periodic result.
+
+    A shooting orbit keeps the FDA's events (kinds ``"impact"``, ``"stick"``, ``"liftoff"``);
+    the other results give their :class:`~tps_solver.core.pattern.ContactPattern`, read here in
+    the same terms (a bounce or touch is an impact; a stick or chatter lands, rests, lifts off).
+    """
+    ev = orbit.get("events")
+    if ev is not None and orbit.get("sticking_intervals") is not None:
+        if len(ev):
+            return (np.asarray(ev.t, dtype=float), np.asarray(ev.node, dtype=int), np.asarray(ev.kind).astype(str),
+                    list(orbit.sticking_intervals))
+        return np.empty(0), np.empty(0, int), np.empty(0, str), list(orbit.sticking_intervals)
+    try:
+        pat = orbit.contacts
+    except (AttributeError, KeyError) as exc:
+        raise ValueError(f"contact_pattern_figure: this {type(orbit).__name__} has no contact pattern ({exc})") from None
+    node = np.asarray(pat.node, dtype=int)
+    t = np.asarray(pat.t, dtype=float)
+    kinds = np.asarray(pat.kind).astype(str)
+    lift = np.asarray(pat.liftoff, dtype=float)
+    rest = np.isin(kinds, ("stick", "chatter")) & np.isfinite(lift)
+    T = float(orbit.period)
+    t0 = float(orbit.get("t_start", 0.0))
+    ivs = []
+    for j, a, b in zip(node[rest], t[rest], lift[rest]):
+        a0 = t0 + np.mod(a - t0, T)                   # in the window [t0, t0 + T); a rest across its
+        b0 = a0 + (b - a)                             # end is drawn in two pieces (the orbit is periodic)
+        ivs.append((int(j), float(a0), float(min(b0, t0 + T))))
+        if b0 > t0 + T:
+            ivs.append((int(j), t0, float(b0 - T)))
+    t_out = np.concatenate([t, lift[rest]])
+    node_out = np.concatenate([node, node[rest]])
+    kind_out = np.concatenate([np.where(rest, "stick", "impact"), np.full(int(rest.sum()), "liftoff")])
+    return t0 + np.mod(t_out - t0, T), node_out, kind_out, ivs
+
+
 def contact_pattern_figure(orbit, trigger_tol=1e-9, zoom=True):
     r"""Contact pattern of a lattice periodic orbit: node position vs time over one period.
 
@@ -463,18 +558,13 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9, zoom=True):
     3
     >>> plt.close(fig)
     """
+    _, t0 = _drawable(orbit, "contact_pattern_figure")
     plt = _pyplot()
     x = np.asarray(orbit.nodes, dtype=float)
     T = float(orbit.period)
-    t0 = float(orbit.t_start)
-    ev = orbit.events
     header, space = _orbit_header(orbit)
-    if ev is not None and len(ev):
-        t = np.asarray(ev.t, dtype=float)
-        node = np.asarray(ev.node, dtype=int)
-        kind = np.asarray(ev.kind).astype(str)
-    else:
-        t, node, kind = np.empty(0), np.empty(0, int), np.empty(0, str)
+    t, node, kind, ivs = _events(orbit)
+    shift = T * math.floor(t0 / T)           # whole periods: t/T drawn in [0, 2), the forcing phase kept
     windows = [(t0, t0 + T)]
     if zoom and t.size:
         ts = np.sort(t)
@@ -487,7 +577,6 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9, zoom=True):
     fig, axes = plt.subplots(1, len(windows), figsize=(6.5 + 4.0 * (len(windows) - 1), 5.5),
                              layout="constrained", squeeze=False)
     dxm = float(np.min(np.diff(x))) if x.size > 1 else 1.0
-    ivs = list(orbit.sticking_intervals)
     imp = kind == "impact"
     landing = (kind == "impact") | (kind == "stick")
     trig = []
@@ -498,17 +587,19 @@ def contact_pattern_figure(orbit, trigger_tol=1e-9, zoom=True):
             if np.min(d) < trigger_tol:
                 trig.append(i)
     trig = np.asarray(trig, dtype=int)
+    bounce_free = not float(orbit.e) > 0.0
     for k, (ax, (ta, tb)) in enumerate(zip(axes[0], windows)):
-        ax.vlines([x[j] for j, _, _ in ivs], [b / math.pi for _, b, _ in ivs],
-                  [e_ / math.pi for _, _, e_ in ivs], colors="k", lw=max(1.0, min(6.0, 300.0 / x.size)),
+        ax.vlines([x[j] for j, _, _ in ivs], [(b - shift) / T for _, b, _ in ivs],
+                  [(e_ - shift) / T for _, _, e_ in ivs], colors="k", lw=max(1.0, min(6.0, 300.0 / x.size)),
                   label="stuck")
-        ax.scatter(x[node[imp]], t[imp] / math.pi, s=12, c="C3", label="touch-and-go", zorder=3)
-        ax.scatter(x[node[trig]], t[trig] / math.pi, s=30, marker="^", facecolors="none", edgecolors="C0",
+        ax.scatter(x[node[imp]], (t[imp] - shift) / T, s=12, c="C3",
+                   label="touch-and-go" if bounce_free else "impact", zorder=3)
+        ax.scatter(x[node[trig]], (t[trig] - shift) / T, s=30, marker="^", facecolors="none", edgecolors="C0",
                    label="triggered lift-off", zorder=4)
         ax.set_xlim(x[0] - dxm, x[-1] + dxm)
-        ax.set_ylim(ta / math.pi, tb / math.pi)
+        ax.set_ylim((ta - shift) / T, (tb - shift) / T)
         ax.set_xlabel(f"${space}$ (viscous lengths)")
-        ax.set_ylabel(r"time $\omega t/\pi$" + (" (one period from the section)" if k == 0 else " (zoom)"))
+        ax.set_ylabel(TIME_LABEL if k == 0 else TIME_LABEL.replace("periods", "periods, zoom"))
         if k == 0:
             ax.legend(fontsize=8, loc="upper right")
         else:

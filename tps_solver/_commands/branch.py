@@ -54,8 +54,10 @@ def run(args):
         multipliers = not args.no_multipliers
 
     def progress(state):
-        print(f"  point {state.iteration:4d}: {args.parameter} = {state.parameter_value:.10g}  "
-              f"{'stable' if state.stable else 'unstable'}", flush=True)
+        verdict = "stability unknown (no multipliers)" if state.stable is None else (
+            "stable" if state.stable else "unstable")
+        print(f"  point {state.iteration:4d}: {args.parameter} = {state.parameter_value:.10g}  {verdict}",
+              flush=True)
 
     br = tps.continue_branch(start, args.parameter, tuple(args.bounds), bothsides=not args.one_side,
                              multipliers=multipliers, callback=progress)

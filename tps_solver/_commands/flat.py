@@ -1,5 +1,4 @@
 """``tps-solver flat``: the bouncing flat layer of (17)-(19) and its multipliers."""
-import math
 
 NAME = "flat"
 #: API parameter -> flag, for error messages.
@@ -45,12 +44,12 @@ def plot(fl, path):
 
     t = np.linspace(fl.t0, fl.t0 + 2 * fl.period, 2000)
     fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5), layout="constrained")
-    ax[0].plot(t / math.pi, fl.height(t))
+    ax[0].plot(t / fl.period, fl.height(t))
     ax[0].set_ylabel(r"height $\zeta$ (plate amplitudes)")
-    ax[1].plot(t / math.pi, fl.velocity(t))
+    ax[1].plot(t / fl.period, fl.velocity(t))
     ax[1].axhline(0.0, color="0.6", lw=0.6)
     ax[1].set_ylabel(r"velocity $W$ ($A\omega$)")
-    ax[1].set_xlabel(r"time $t\,\omega/\pi$ (time unit $1/\omega$)")
+    ax[1].set_xlabel(r"time $t/T$ (periods, dimensionless; $T = 2\pi M/\omega$)")
     ax[0].set_title(f"flat layer (17)-(19): $\\Gamma$ = {fl.Gamma:g}, e = {fl.e:.4g}, M = {fl.M}, "
                     f"$t_0$ = {fl.t0:.4g}, {fl.branch} branch", fontsize=10)
     fig.savefig(path, dpi=120)

@@ -36,8 +36,18 @@ def run(args):
     check_int(n, "--length/--dx (number of nodes)", minimum=3, maximum=2000)
     lat = tps.Lattice.planar(n_nodes=n, length=length)
 
+    shown = {"settle": -1}
+
     def progress(state):
-        print(f"  Newton {state.iteration:3d}: max|P(x) - x| = {state.residual:.3e}", flush=True)
+        """Settling runs report the fraction of their periods, shooting its Newton steps (by stage)."""
+        if state.stage == "simulate":
+            tenth = int(10 * state.fraction) if np.isfinite(state.fraction) else -1
+            if tenth > shown["settle"]:
+                shown["settle"] = tenth
+                print(f"  settling: {10 * tenth:3d} % of {args.periods} periods", flush=True)
+            return
+        label = "Newton (mirrored half period)" if state.get("symmetric") else "Newton"
+        print(f"  {label} {state.iteration:3d}: max|P(x) - x| = {state.residual:.3e}", flush=True)
 
     print(f"lattice kink: Gamma = {args.gamma:g}, e = {args.e:g}, M = {args.M}, {n} nodes, dx = {dx:g}, "
           f"{'soft contact, cutoff = %g' % args.cutoff if args.cutoff else 'point impacts'}", flush=True)

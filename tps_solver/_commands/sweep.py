@@ -5,7 +5,8 @@ Examples
 $ tps-solver sweep basins --gamma 2.4 4.6 0.2 --e 0 0.45 0.15 --samples 32 --workers 2 --plot basins.png
 """
 NAME = "sweep"
-HELP = "Sweep (Gamma, e): the flat layer's f/2 basin fraction per point, on a process pool; writes a map."
+HELP = ("Sweep (Gamma, e): per point, the fraction of random starts of one node (the ball) that reach a "
+        "period-M attractor (any contact pattern), on a process pool; writes a map.")
 
 
 def configure(parser):
@@ -63,7 +64,9 @@ def run(args):
         print(f"  point {params[i]} failed: {results[i].error}", file=sys.stderr)
     frac = np.array([np.nan if i in failed else r["flat_fraction"] for i, r in enumerate(results)]
                     ).reshape(len(es), len(gammas))
-    print(f"f/{args.M} basin fraction of the ball ({args.model} contact, {samples} samples per point)")
+    print(f"fraction of random starts of one node reaching a period-{args.M} (f/{args.M}) attractor of any contact "
+          f"pattern -- not only the flat layer's single-bounce orbit -- ({args.model} contact, {samples} samples "
+          "per point)")
     print("  e \\ Gamma " + " ".join(f"{G:7.3f}" for G in gammas))
     for e, row in zip(es, frac):
         print(f"  {e:9.3f} " + " ".join(f"{v:7.3f}" for v in row))
@@ -72,11 +75,12 @@ def run(args):
 
         fig, ax = plt.subplots(figsize=(7, 4))
         im = ax.pcolormesh(gammas, es, frac, vmin=0.0, vmax=1.0, shading="nearest", cmap="viridis")
-        fig.colorbar(im, ax=ax, label=f"fraction of random starts reaching f/{args.M}")
+        fig.colorbar(im, ax=ax, label=f"fraction of starts on a period-{args.M} attractor (dimensionless)")
         ax.set_xlabel(r"$\Gamma = A\omega^2/g$")
         ax.set_ylabel("restitution $e$")
-        ax.set_title(f"basin of the flat f/{args.M} orbit, {args.model} contact, {samples} samples/point",
-                     fontsize=9)
+        ax.set_title(f"one node: fraction of random starts reaching any f/{args.M} (period-{args.M}) attractor\n"
+                     f"(any contact pattern, not only the flat single-bounce orbit), M = {args.M}, "
+                     f"{args.model} contact, {samples} samples/point", fontsize=9)
         fig.tight_layout()
         fig.savefig(args.plot, dpi=130)
         print(f"wrote {args.plot}")

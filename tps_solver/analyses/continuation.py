@@ -155,7 +155,11 @@ class Branch(Bunch):
         The unknowns of the problem at each point (``t0`` for a flat layer, the
         contact times for a lattice cycle).
     stable : ndarray of bool, shape (k,)
-        All Floquet multipliers inside the unit circle.
+        All Floquet multipliers known and inside the unit circle (False where none was computed:
+        read ``stability`` there).
+    stability : ndarray of str, shape (k,)
+        ``"stable"``, ``"unstable"`` or ``"unknown"`` (no multipliers computed at the point, e.g.
+        ``multipliers=False`` or an impact-and-stick branch).
     multipliers : ndarray of complex, shape (k, m)
         Multipliers per point, by decreasing modulus (NaN where not computed).
     special_points : list of SpecialPoint
@@ -221,8 +225,13 @@ class Branch(Bunch):
         p = self.parameter_values
         rho = np.nanmax(np.abs(self.multipliers), axis=1) if self.multipliers.size else np.full(p.size, np.nan)
         ax.plot(p, rho, "-", color="0.7", lw=0.8)
-        for mask, style, label in ((self.stable, "o", "stable"), (~self.stable, "x", "unstable")):
+        stability = np.asarray(self.get("stability", np.where(self.stable, "stable", "unstable")))
+        for mask, style, label in ((stability == "stable", "o", "stable"), (stability == "unstable", "x", "unstable")):
             ax.plot(p[mask], rho[mask], style, ms=3, color="C0" if label == "stable" else "C1", label=label)
+        unknown = stability == "unknown"
+        if unknown.any():            # no multiplier there: a rug along the parameter axis, not a |mu|
+            ax.plot(p[unknown], np.full(int(unknown.sum()), 0.03), "|", ms=8, color="0.4",
+                    transform=ax.get_xaxis_transform(), label="stability unknown (no multipliers)")
         for kind, value in self.special_points:
             ax.axvline(value, color="C3" if kind == "fold" else "C2", lw=0.8, ls=":")
             ax.annotate(kind.replace("_", " "), (value, 1.0), rotation=90, fontsize=7, va="bottom")
@@ -724,7 +733,9 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     callback : callable, optional
         ``callback(state)`` after each accepted point (a
         :class:`~tps_solver.core.progress.ProgressState`: stage ``"continuation"``,
-        ``iteration`` k, ``parameter``, ``parameter_value``, ``stable``).
+        ``iteration`` k, ``parameter``, ``parameter_value``, ``stable``: bool, None where no
+        multiplier was computed).  A ``KeyboardInterrupt`` -- also while the start is corrected --
+        returns ``status = 5`` with the points so far (none if the start was not done).
 
     Returns
     -------
@@ -780,23 +791,25 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     clock = time.perf_counter()
 
     y = np.concatenate([problem.x0, [p0]])
-    y, ok, _, _ = _correct(problem, y, np.eye(y.size)[-1], tol, max_corrector)
-    if not ok:
-        raise ValueError(f"start is not a solution of the continued problem to tol = {tol:g}")
-    Jx, Jp = problem.jacobian(y[:-1], y[-1])
-    tau = _tangent(Jx, Jp, direction * np.eye(y.size)[-1])
-    points, tangents, mus, pds = [y], [tau], [], []
-    try:
-        mu, pd = _multipliers(problem, y)
-    except _Refused as exc:
-        raise ValueError(f"start: {exc}") from None
-    mus.append(mu)
-    pds.append(pd)
-    bps = [_branch_test(mu)]
+    points, tangents, mus, pds, bps = [], [], [], [], []
     specials, details = [], []
     status, message = 1, f"point limit ({max_points}) reached"
     h = step
-    try:
+    try:      # the interrupt guard covers the start's correction and multipliers too
+        y, ok, _, _ = _correct(problem, y, np.eye(y.size)[-1], tol, max_corrector)
+        if not ok:
+            raise ValueError(f"start is not a solution of the continued problem to tol = {tol:g}")
+        Jx, Jp = problem.jacobian(y[:-1], y[-1])
+        tau = _tangent(Jx, Jp, direction * np.eye(y.size)[-1])
+        try:
+            mu, pd = _multipliers(problem, y)
+        except _Refused as exc:
+            raise ValueError(f"start: {exc}") from None
+        points.append(y)
+        tangents.append(tau)
+        mus.append(mu)
+        pds.append(pd)
+        bps.append(_branch_test(mu))
         while len(points) < max_points:
             y_prev, tau_prev = points[-1], tangents[-1]
             y_new, ok, nit, refused = _correct(problem, y_prev + h * tau_prev, tau_prev, tol, max_corrector)
@@ -839,27 +852,43 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
             if callback is not None:
                 callback(progress_state("continuation", len(points) - 1, parameter=parameter,
                                         parameter_value=float(y_new[-1]),
-                                        stable=bool(mu.size and np.max(np.abs(mu)) < 1.0)))
+                                        stable=(bool(np.max(np.abs(mu)) < 1.0) if mu.size else None)))
             if not lo <= y_new[-1] <= hi:
                 status, message = 0, f"left the interval [{lo:g}, {hi:g}] at {parameter} = {y_new[-1]:.10g}"
                 break
             h = min(max_step, h * (1.5 if nit <= 3 else 1.0 if nit <= 6 else 0.5))
     except KeyboardInterrupt:
-        status, message = 5, "interrupted (KeyboardInterrupt); the points so far are returned"
-    P = np.array(points)
+        status, message = 5, ("interrupted (KeyboardInterrupt); the points so far are returned" if points else
+                              "interrupted (KeyboardInterrupt) while correcting the start; no point yet")
+    P = np.array(points) if points else np.empty((0, y.size))
     m = max((mu.size for mu in mus), default=0)
     mult = np.full((len(mus), m), np.nan, dtype=complex)
     for i, mu in enumerate(mus):
         mult[i, :mu.size] = mu
-    with np.errstate(invalid="ignore"):
-        rho = np.nanmax(np.abs(mult), axis=1) if m else np.full(len(mus), np.nan)
-    stable = np.where(np.isfinite(rho), rho < 1.0, False)
+    stable, stability, note = _verdicts(mult)
     names = ", ".join(f"{k} at {v:.10g}" for k, v in specials) or "none"
     return Branch(parameter=parameter, parameter_values=P[:, -1], states=P[:, :-1], stable=stable,
-                  multipliers=mult, special_points=specials, special_details=details, status=status,
-                  message=f"{message}; {len(points)} points; special points: {names}",
+                  stability=stability, multipliers=mult, special_points=specials, special_details=details,
+                  status=status, message=f"{message}; {len(points)} points; special points: {names}{note}",
                   success=status in (0, 1), problem=problem.name,
                   context={k: float(v) for k, v in problem.fixed.items()}, time=time.perf_counter() - clock)
+
+
+def _verdicts(mult):
+    """Per point: ``stable`` (bool), ``stability`` ("stable", "unstable" or "unknown") and a note.
+
+    A point without multipliers (none computed) is "unknown", not unstable; ``stable`` is
+    True only where every multiplier is known and inside the unit circle.
+    """
+    known = np.all(np.isfinite(mult), axis=1) & (mult.shape[1] > 0)
+    with np.errstate(invalid="ignore"):
+        rho = np.max(np.abs(mult), axis=1) if mult.shape[1] else np.full(mult.shape[0], np.nan)
+    stable = known & (rho < 1.0)
+    stability = np.where(~known, "unknown", np.where(stable, "stable", "unstable"))
+    n_unknown = int(np.count_nonzero(~known))
+    note = (f"; stability unknown at {n_unknown} of {known.size} points (no multipliers computed there; "
+            "Branch.stable is False there only because nothing was decided)" if n_unknown else "")
+    return stable, stability, note
 
 
 def _join(down, up):
@@ -880,6 +909,7 @@ def _join(down, up):
         parameter_values=np.concatenate([down.parameter_values[::-1], up.parameter_values[1:]]),
         states=np.concatenate([down.states[::-1], up.states[1:]]),
         stable=np.concatenate([down.stable[::-1], up.stable[1:]]),
+        stability=np.concatenate([down.stability[::-1], up.stability[1:]]),
         multipliers=np.concatenate([pad(down.multipliers)[::-1], pad(up.multipliers)[1:]]),
         special_points=[SpecialPoint.from_detail(d, up.parameter) for d in details],
         special_details=details, status=status,
@@ -932,6 +962,8 @@ def _locate(problem, kind, y0, tau0, h, f0, tol, tol_special, max_corrector):
 def _validate_branch(f):
     k = f.array("parameter_values", "f", ndim=1, finite=True).size
     f.array("stable", "b", shape=(k,))
+    if f.has("stability"):
+        f.array("stability", "U", shape=(k,))
     f.array("states", "f", shape=(k, None), finite=True)
     f.array("multipliers", "fc", shape=(k, None))
     f.str("parameter")

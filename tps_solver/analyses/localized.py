@@ -37,6 +37,7 @@ import time
 
 import numpy as np
 
+from tps_solver.core.orbit import STATUS, far_field
 from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive, check_real
 from tps_solver.core.costs import check_cost
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
@@ -200,8 +201,13 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
                      "symmetric=False. ")
     orb.localized = bool(orb.converged) and _localized(orb)
     if orb.converged and not orb.localized:
+        # not the orbit asked for: converged = False, status 9 (the fields hold the flat layer)
         note += ("the phase-shifted region did not survive: the converged orbit is uniform (the flat "
-                 "layer), not a localized state. ")
+                 "layer), not a localized state; converged = False, status 9 (not the orbit asked for). ")
+        orb.update(converged=False, success=False, status=9, status_text=STATUS[9])
+    if hasattr(flat, "floquet_multipliers"):       # point impacts: the flat layer's own multipliers
+        orb.far_field_stable, orb.far_field_multipliers, far_note = far_field(flat)
+        note = far_note + note
     if note:
         orb.message = note + orb.message
     return orb
@@ -280,8 +286,9 @@ def lattice_kink(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, pattern="auto",
         ``converged``, ``residual``, ``multipliers``, ``contacts_per_node``, ``sticking_intervals``,
         ``events`` ...; :func:`front_width` measures its front.  One more field, ``localized``
         (bool): whether the two ends of the lattice are still on different phases (False when
-        the front has left the lattice and the orbit is the flat layer -- the message says so --
-        and whenever ``converged`` is False).
+        the front has left the lattice and the orbit is the flat layer -- then ``converged`` is
+        False and ``status`` 9, not the orbit asked for, and the message says so -- and whenever
+        ``converged`` is False).
 
     Raises
     ------
@@ -360,7 +367,8 @@ def lattice_oscillon(lattice, Gamma=4.1, M=2, e=0.0, cutoff=None, *, core_radius
     On a very coarse lattice (dr = 8) the lattice pins a core of radius 12, and a periodic
     oscillon exists there.  On finer lattices (dr = 4, and dr = 1 or 0.5 in
     ``validation/sections/inelastic_kinks.md``) an e = 0 core shrinks and vanishes. The orbit found
-    is then the flat layer, with ``localized`` False and a message saying so.
+    is then the flat layer, with ``localized`` False, ``converged`` False, ``status`` 9 and a
+    message saying so.
 
     >>> import tps_solver as tps
     >>> lat = tps.Lattice.axisymmetric(n_nodes=6, r_max=40.0, grid="uniform")

@@ -33,15 +33,25 @@ What is measured
     disagree the map has a kink at the orbit; ``differentiable = False`` and only
     the uniform-mode multipliers (flat layers) are reported.
 
-* **verdict** -- ``stable`` is True when the measured growth factor is below 1
-  and the last defect is below ``defect_tol``; the message states the lattice
-  cut-off in force (docs/design.md, hazard 8): a verdict on a lattice with point impacts is a
+* **verdict** -- ``verdict`` is ``"stable"`` when the measured growth factor is below 1
+  and the last defect is below ``defect_tol``, ``"unstable"`` when the growth factor is 1 or
+  more, and ``"unknown"`` otherwise, with the reason in ``verdict_reason`` and the message:
+  interrupted, or the run does not stay on the orbit (a continuum TPS orbit is not an orbit of
+  the lattice: its defect decays while the run settles onto a nearby lattice orbit), or the
+  verdict would disagree with the multipliers the orbit carries (a shooting orbit's, an
+  impact-and-stick solution's) or with the full period map's (``jacobian=True``).  The growth
+  is fitted on the periods above round-off (a perturbation of a strongly contracting orbit
+  reaches round-off, or exactly 0 on sticking nodes, within a few periods; fitting there gave
+  ``nan`` or a growth of 1 that says nothing).  ``stable`` is ``verdict == "stable"``.  The
+  message states the lattice cut-off in force (docs/design.md, hazard 8): a verdict on a lattice with point impacts is a
   verdict for that lattice spacing, not a converged statement.  When a flat layer
   that is stable by its own Floquet multipliers is found "not stable" with point
   impacts, the message *starts* by saying that this is the grid-scale instability
   of point impacts (``grid_instability = True``) and points to the soft contact.
 
-Only periodic orbits are checked: a TPS result with ``converged = False`` is refused
+Every periodic result of the package is accepted (``PeriodicSolution``, ``LatticeCycle``,
+``ShootingOrbit``, ``StickSolution``; the last three on their own lattice).  Only periodic orbits
+are checked: a result with ``converged = False`` is refused
 (``ValueError``), since its fields are not a periodic orbit of anything.
 
 Cost and interrupts: ``callback(state)`` receives a
@@ -94,6 +104,18 @@ class StabilityResult(Bunch):
     differentiable : bool or None
         Outcome of the one-sided Jacobian test (None if not run).
     stable : bool
+        ``verdict == "stable"``.
+    verdict : str
+        ``"stable"`` (the perturbation decays and the run stays on the orbit), ``"unstable"``
+        (the perturbation grows) or ``"unknown"`` (interrupted, the run is not on an orbit of
+        this lattice, or the measurement disagrees with the multipliers); never a verdict that
+        disagrees with the orbit's own multipliers (``orbit_multipliers``) or with the full
+        period map's.
+    verdict_reason : str
+        Why the verdict is "unknown", or which multipliers it agrees with ('' otherwise).
+    orbit_multipliers : ndarray of complex
+        The multipliers the checked orbit carries (a shooting orbit, an impact-and-stick
+        solution), by decreasing modulus; empty when it carries none.
     message : str
     events_per_period : ndarray of int, shape (periods,)
     sticking_nodes : ndarray of int
@@ -143,9 +165,8 @@ def _section_time(sol, T, n=256):
     return float(ts[int(np.argmax(zmin))])
 
 
-def _lattice_for_solution(sol, n_nodes, boundary):
+def _lattice_for_solution(sol, n_nodes, boundary, geometry):
     nodes = np.asarray(sol.nodes, dtype=float)
-    geometry = sol.geometry
     if geometry == "planar":
         if n_nodes is None:
             h = np.diff(nodes)
@@ -199,6 +220,79 @@ def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h, tick=None):
     (perturbed heights clipped at 0)."""
     pm = _period_map(lattice, Gamma, e, t_s, T, method, kw)
     return pm.matrix(pm.pack(w, z), h, scheme="one-sided", relative=False, heights="clip", tick=tick)
+
+
+#: The perturbation's distance is round-off below this many units of eps times the state's size.
+ROUNDOFF = 1e3 * np.finfo(float).eps
+
+
+def _growth_above_floor(dist, saturation, floor):
+    """The growth fit on the periods whose distance is above the round-off ``floor``.
+
+    A strongly contracting orbit (|mu| = 0.03, or a sticking node whose perturbation is erased)
+    brings the perturbed run onto the reference within a few periods, after which the distance
+    is round-off (or exactly 0): fitting there gives ``nan`` or a growth near 1 that says nothing.
+    Returns ``(growth, window, note)``; ``note`` is None when the floor was not reached, and
+    ``growth`` is the upper bound ``(floor / d_0)^(1/k)`` when the floor is reached at period 1.
+    """
+    dist = np.asarray(dist, dtype=float)
+    low = np.flatnonzero(~(dist > floor))
+    if low.size == 0 or low[0] == 0:
+        growth, window = fit_growth(dist, saturation)
+        return growth, window, None
+    k = int(low[0])
+    if k >= 2:
+        growth, window = fit_growth(dist[:k], saturation)
+        return growth, window, (f"the perturbation reached round-off ({floor:.2g}) after {k} periods; growth "
+                                f"fitted on periods {window[0]}..{window[1]} above it")
+    bound = float((floor / dist[0]) ** (1.0 / k))
+    return bound, (0, k), (f"the perturbation fell below round-off ({floor:.2g}) within one period: growth "
+                           f"factor <= {bound:.3g} (an upper bound)")
+
+
+def _decide(interrupted, ref, growth, defects, final_defect, defect_tol, own, full):
+    """The verdict ("stable", "unstable", "unknown") and why, checked against the multipliers.
+
+    ``own``: the multipliers the orbit carries (a shooting orbit's, an impact-and-stick
+    solution's); ``full``: those of the full period map measured here.  A verdict that disagrees
+    with them is "unknown", and the reason names both.
+    """
+    if interrupted:
+        return "unknown", "interrupted"
+    if not ref.success:
+        return "unknown", f"the reference run stopped (status {ref.status})"
+    if not np.isfinite(growth):
+        return "unknown", "no growth factor measured (fewer than two periods below saturation)"
+    if growth >= 1.0:
+        decided, reason = "unstable", ""
+    elif final_defect <= defect_tol:
+        decided, reason = "stable", ""
+    else:
+        first = float(np.max(defects[0])) if defects.size else float("nan")
+        settling = defects.shape[0] >= 2 and final_defect < 0.1 * first
+        if settling:
+            rate = float((final_defect / first) ** (1.0 / (defects.shape[0] - 1)))
+            more = int(math.ceil(math.log(defect_tol / final_defect) / math.log(rate))) if rate < 1.0 else -1
+            reason = (f"not a periodic orbit of this lattice: the defect falls from {first:.3g} to "
+                      f"{final_defect:.3g} (> defect_tol = {defect_tol:g}), by {rate:.3g} per period, while a "
+                      f"perturbation decays by {growth:.3g} per period: the run is settling onto a nearby "
+                      f"orbit of the lattice" + (f" (about {more} more periods to reach defect_tol)" if more > 0
+                                                 else "") + "; solve the orbit on this lattice (solve_lattice, "
+                      "solve_lattice_cycle, find_periodic_orbit) for a check without that mismatch")
+        else:
+            reason = (f"a perturbation decays ({growth:.3g} per period) but the run does not return to the "
+                      f"orbit (final defect {final_defect:.3g} > defect_tol = {defect_tol:g})")
+        decided = "unknown"
+    for name, mu in (("the orbit's multipliers", own), ("the full period map's multipliers", full)):
+        if mu is None or decided == "unknown":
+            continue
+        rho = float(np.max(np.abs(mu)))
+        if (rho < 1.0) != (decided == "stable"):
+            return "unknown", (f"the measured growth {growth:.3g} per period says {decided}, {name} say "
+                               f"max|mu| = {rho:.3g}: they disagree (an impact-order kink of the period map, "
+                               "docs/design.md, hazard 7, or a perturbation that missed the leading mode)")
+        reason = (reason + "; " if reason else "") + f"agrees with {name}, max|mu| = {rho:.3g}"
+    return decided, reason
 
 
 def check_stability(solution, periods=20, n_nodes=None, method="exact", *, length=8.0,
@@ -309,7 +403,8 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
             t_s = fl.t0 + 0.5 * T
             w0, z0 = flat_state(lattice, fl, t_s)
         flat = fl
-    elif all(hasattr(solution, a) for a in ("geometry", "nodes", "velocity", "height", "period")):
+    elif all(hasattr(solution, a) for a in ("nodes", "velocity", "height", "period")) and (
+            hasattr(solution, "geometry") or getattr(solution, "lattice", None) is not None):
         sol = solution
         if not bool(getattr(sol, "converged", True)):
             raise ValueError(
@@ -322,7 +417,8 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
         if own is not None and n_nodes is None and boundary in (None, own.boundary):
             lattice = own              # a TPS orbit of this very lattice: no discretisation mismatch
         else:
-            lattice = _lattice_for_solution(sol, n_nodes, boundary or "pinned")
+            lattice = _lattice_for_solution(sol, n_nodes, boundary or "pinned",
+                                            getattr(sol, "geometry", None) or own.geometry)
         Gamma, e, T = float(sol.Gamma), float(sol.e), float(sol.period)
         t_s = _section_time(sol, T)
         w0, z0 = _sample_solution(sol, lattice, t_s)
@@ -331,8 +427,9 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
             z0 = np.maximum(z0, 0.0)
         flat = getattr(sol, "flat", None)
     else:
-        raise ValueError("solution must be a FlatLayer or a PeriodicSolution (with geometry, nodes, "
-                         f"velocity, height, period), got {type(solution).__name__}")
+        raise ValueError("solution must be a FlatLayer or a periodic result (PeriodicSolution, LatticeCycle, "
+                         "ShootingOrbit, StickSolution: nodes, velocity, height, period and a geometry or a "
+                         f"lattice), got {type(solution).__name__}")
 
     n_cycles = periods * T / (2.0 * math.pi)
     nbytes, seconds = simulate_cost(lattice.n_nodes, n_cycles, periods + 1)
@@ -411,8 +508,11 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
     k = min(pert.zeta_eval.shape[0], k_done)
     dist = np.maximum(np.max(np.abs(pert.zeta_eval[:k] - Z[:k]), axis=1),
                       np.max(np.abs(pert.w_eval[:k] - W[:k]), axis=1))
-    growth, window = fit_growth(dist, saturation)
-    if window[1] < k - 1:
+    floor = ROUNDOFF * max(1.0, float(np.max(np.abs(w0))), float(np.max(z0)))
+    growth, window, below = _growth_above_floor(dist, saturation, floor)
+    if below is not None:
+        notes.append(below)
+    if window[1] < k - 1 and below is None:
         notes.append(f"the perturbation reached {np.max(dist):.3g} (> saturation {saturation:g}) after "
                      f"{window[1] + 1} periods; growth fitted on periods {window[0]}..{window[1]} only")
 
@@ -472,13 +572,18 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
     if limited:
         notes.append("verdict is cut-off-limited: " + why)
     final_defect = float(np.max(defects[-1])) if defects.size else float("nan")
-    stable = bool(not interrupted and ref.success and np.isfinite(growth) and growth < 1.0
-                  and final_defect <= defect_tol)
     if not ref.success and ref.status != 5:
         notes.insert(0, f"reference run stopped: {ref.message}")
-    grid = bool(not stable and not interrupted and flat_input and cutoff["kind"] == "lattice spacing"
+    own = None if flat_input else solution.get("multipliers") if hasattr(solution, "get") else None
+    own = None if own is None or len(own) == 0 else np.asarray(own, dtype=complex)
+    decided, reason = _decide(interrupted, ref, growth, defects, final_defect, defect_tol, own,
+                              multipliers if kind == "full period map" else None)
+    stable = decided == "stable"
+    grid = bool(decided == "unstable" and flat_input and cutoff["kind"] == "lattice spacing"
                 and flat is not None and getattr(flat, "is_stable", False) and ref.success)
-    verdict = "stable" if stable else "not stable"
+    verdict = {"stable": "stable", "unstable": "not stable", "unknown": "stability unknown"}[decided]
+    if reason:
+        verdict += f" ({reason})"
     if interrupted:
         verdict = (f"interrupted (KeyboardInterrupt) after {done['periods']:.0f} of {total:.0f} periods; "
                    f"no verdict (stable=False only because nothing was decided); the fields hold what "
@@ -501,7 +606,9 @@ def _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method,
         defects=defects, initial_defect=initial_defect, growth_factor=growth, growth_history=dist,
         growth_window=window,
         multipliers=multipliers, multipliers_kind=kind, uniform_multipliers=uniform,
-        differentiable=differentiable, stable=stable, message=msg, events_per_period=events_per_period,
+        differentiable=differentiable, stable=stable, verdict=decided, verdict_reason=reason,
+        orbit_multipliers=np.empty(0, complex) if own is None else own, message=msg,
+        events_per_period=events_per_period,
         sticking_nodes=sticking, cutoff=cutoff, cutoff_limited=limited, lattice=lattice, method=method, period=T,
         section_time=t_s, periods=periods, success=bool(ref.success), grid_instability=grid,
         interrupted=bool(interrupted))

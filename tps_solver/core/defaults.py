@@ -8,7 +8,7 @@ flags and the demo compute the same thing.
 
 Model
 -----
-``GAMMA = 2.5``, ``M = 2`` and ``E = 0.45``: the flat layer of launch phase
+``GAMMA = 2.5`` (``GAMMA_STICK = 4.1`` for e = 0, where 2.5 has no f/2 orbit), ``M = 2`` and ``E = 0.45``: the flat layer of launch phase
 ``t0 = 0.3068`` in the *interior* of its stability window (Floquet multipliers
 ``-0.192 +/- 0.407i``, modulus 0.45).  The paper's preset ``t0 = 0`` (which fixes
 ``e = 0.4307`` by (19)) is *not* the default: it sits exactly on the fold of the flat
@@ -45,12 +45,15 @@ Examples
 {'e': None, 't0': 0.0}
 """
 
-__all__ = ["GAMMA", "M", "E", "PAPER_PRESET", "STABLE_PRESET", "PRESETS", "N_HARMONICS", "SPACING",
+__all__ = ["GAMMA", "GAMMA_STICK", "M", "E", "PAPER_PRESET", "STABLE_PRESET", "PRESETS", "N_HARMONICS", "SPACING",
            "N_NODES", "R_MAX", "HALF_LENGTH", "R_CORE", "COARSE_LATTICE", "TOL", "MAX_ITER",
            "FOLD_SPACING_TPS", "FOLD_SPACING_LATTICE", "model"]
 
 #: Plate acceleration.
 GAMMA = 2.5
+#: Plate acceleration of the completely inelastic (e = 0) kinks and oscillons: at GAMMA = 2.5 the
+#: e = 0 layer has no f/2 orbit (the sticking one exists for 3.857 <= Gamma <= 6.362).
+GAMMA_STICK = 4.1
 #: Subharmonic order (period T = 2 pi M).
 M = 2
 #: Restitution of the default flat layer (stable interior, t0 = 0.3068).

@@ -30,6 +30,8 @@ code  meaning
 7     periodic on the free nodes, but a node stuck at the section is free after
       one period (choose another section)
 8     singular or non-finite Jacobian
+9     not the orbit asked for: the solve converged, but to the uniform flat layer
+      (no kink or oscillon is left on the lattice); the fields hold that orbit
 ====  ==========================================================================
 
 :func:`outcome` gives the ``converged``/``success`` pair of a code (computed once).
@@ -39,7 +41,7 @@ import numpy as np
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.pattern import ContactPattern
 
-__all__ = ["PeriodicOrbit", "STATUS", "converged_message", "outcome"]
+__all__ = ["PeriodicOrbit", "STATUS", "converged_message", "far_field", "outcome"]
 
 STATUS = {
     0: "converged",
@@ -51,6 +53,7 @@ STATUS = {
     6: "event bound exceeded",
     7: "stuck set changed at the section",
     8: "singular or non-finite Jacobian",
+    9: "not the orbit asked for (converged to the uniform flat layer)",
 }
 
 
@@ -78,6 +81,43 @@ def converged_message(residual, tol, how=""):
     """
     how = f" {how}" if how else ""
     return f"converged{how}: max|F| = {residual:.3e} <= tol = {tol:.1e}"
+
+
+def far_field(flat):
+    """Whether the far-field flat layer of an orbit is stable, its multipliers, and a sentence.
+
+    A kink or oscillon whose far field is unstable (a Floquet multiplier of the flat layer
+    outside the unit circle) cannot be observed: the layer away from the front leaves its orbit.
+    Every periodic result states it in ``far_field_stable`` and, when unstable, in its message.
+
+    Parameters
+    ----------
+    flat : FlatLayer
+        The far field (duck-typed: ``floquet_multipliers()``).
+
+    Returns
+    -------
+    stable : bool
+    multipliers : ndarray of complex, shape (2,)
+        By decreasing modulus.
+    note : str
+        '' when stable; else a sentence naming the largest modulus.
+
+    Examples
+    --------
+    >>> class Flat:
+    ...     def floquet_multipliers(self):
+    ...         return np.array([5.78, 0.035], dtype=complex)
+    >>> stable, mu, note = far_field(Flat())
+    >>> stable, note
+    (False, 'the far field (flat layer) is unstable: its largest Floquet multiplier has |mu| = 5.78 > 1, so this orbit cannot be observed (far_field_stable = False). ')
+    """
+    mu = np.asarray(flat.floquet_multipliers(), dtype=complex)
+    rho = float(np.max(np.abs(mu))) if mu.size else float("nan")
+    stable = bool(rho < 1.0)
+    note = "" if stable else (f"the far field (flat layer) is unstable: its largest Floquet multiplier has "
+                              f"|mu| = {rho:.3g} > 1, so this orbit cannot be observed (far_field_stable = False). ")
+    return stable, mu, note
 
 
 class PeriodicOrbit(Bunch):
@@ -114,6 +154,9 @@ class PeriodicOrbit(Bunch):
         Subharmonic order (period ``T = 2 pi M``).
     flat : FlatLayer
         The far-field flat layer.
+    far_field_stable : bool
+        Whether that flat layer is stable (its Floquet multipliers inside the unit circle, in
+        ``far_field_multipliers``); when it is not, the message says so (:func:`far_field`).
     coupling : float
         The coupling :math:`\nu_c` the fields belong to (1 unless a
         continuation stopped early, ``status = 4``).

@@ -94,6 +94,8 @@ class Progress:
         self._next_log = self.done
         self._steps = 0
         self._opened = False
+        self._stage = None          # the stage shown (its name is in the bar's label)
+        self._finite = None         # whether that stage reports fractions (a 0-100 % bar) or steps
 
     def _open(self, counting=False):
         """Create the bar at the first update, so a call that fails at once prints nothing."""
@@ -112,22 +114,39 @@ class Progress:
         else:
             self.bar = tqdm(total=100, desc=self.desc, unit="%", dynamic_ncols=True, leave=False)
 
+    def _enter_stage(self, stage, finite):
+        """A new stage (or a stage that switches between fractions and steps): relabel and restart the bar."""
+        if stage == self._stage and finite == self._finite:
+            return
+        self._stage, self._finite, self._steps, self._last_log = stage, finite, 0, -1.0
+        if self.bar is not None:
+            self.bar.reset(total=100 if finite else None)
+            if not finite:
+                self.bar.total = None              # reset(total=None) keeps the old total
+            self.bar.unit = "%" if finite else "step"
+            self.bar.set_description(f"{self.desc} [{stage}]" if stage else self.desc, refresh=True)
+
     def __call__(self, state):
-        """The callback: a percentage when ``state.fraction`` is known, else the step and residual."""
-        if math.isfinite(state.fraction):
+        """The callback: the stage's name, and a percentage when ``state.fraction`` is known, else the
+        steps taken (a count that moves) and the residual."""
+        finite = math.isfinite(state.fraction)
+        if self.enabled:
+            self._open()
+            self._enter_stage(state.get("stage"), finite)
+        if finite:
             self._fraction(state.fraction)
             return
         self._steps += 1
         if not self.enabled:
             return
-        self._open()
         text = f"step {state.iteration}"
         if math.isfinite(state.residual):
             text += f", max|F| = {state.residual:.3e}"
         if self.bar is not None:
+            self.bar.update(1)
             self.bar.set_postfix_str(text, refresh=True)
         else:
-            _LOG.info("%s: %s", self.desc, text)
+            _LOG.info("%s: %s [%s]", self.desc, text, state.get("stage"))
 
     def newton(self, iteration, tc, residual):
         """The display of one Newton step given positionally (as ``self(state)`` of stage "newton")."""
@@ -147,7 +166,7 @@ class Progress:
             self.bar.refresh()
         elif frac - self._last_log >= 0.1 or frac >= 1.0 > self._last_log:
             self._last_log = frac
-            _LOG.info("%s: %.0f %% done", self.desc, 100 * frac)
+            _LOG.info("%s: %.0f %% done%s", self.desc, 100 * frac, f" [{self._stage}]" if self._stage else "")
 
     def update(self, n=1):
         """``n`` more items done (counting mode, out of ``total``)."""

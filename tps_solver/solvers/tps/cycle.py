@@ -41,7 +41,7 @@ from tps_solver.model.restitution import as_restitution
 from tps_solver.core.costs import blas_threads, check_cost, cycle_cost, small_dense
 from tps_solver.operators.lattice import Lattice
 from tps_solver.operators.modal import ModalBasis, kernel, kernel_integral
-from tps_solver.core.orbit import PeriodicOrbit
+from tps_solver.core.orbit import PeriodicOrbit, far_field
 from tps_solver.solvers.tps.engine import TimePeriodicProblem, continuation as run_continuation, newton
 from tps_solver.solvers.tps.problems import bouncing_far_field, decoupled_spacing
 from tps_solver.solvers.tps.solvers import lattice_initial_tc, next_steps
@@ -311,6 +311,9 @@ def solve_lattice_cycle(lattice, Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=
     cyc.eigenvalues, cyc.modes, cyc.modes_inv = problem.lam, problem.V, problem.Vinv
     cyc.zeta_offset = np.zeros(x.size)
     cyc.zeta_offset = np.diag(cyc._height_raw(tc))
+    cyc.far_field_stable, cyc.far_field_multipliers, note = far_field(flat)
+    if note:
+        cyc.message += "; " + note.rstrip()
     return cyc
 
 

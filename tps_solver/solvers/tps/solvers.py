@@ -64,6 +64,7 @@ from tps_solver.core import defaults
 from tps_solver.model.restitution import RestitutionLaw, as_restitution
 from tps_solver.core.checks import check_array, check_choice, check_int, check_positive, check_real, check_restitution
 from tps_solver.core.costs import check_cost, tps_cost
+from tps_solver.core.orbit import far_field
 from tps_solver.model.harmonics import centred, evaluate, height_from_velocity, mode_numbers, sawtooth, sawtooth_hat
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.tps.checks import physical_checks
@@ -266,6 +267,10 @@ def _finish(problem, flat, N, tc, w, status, message, nit, history, scheme, geom
     sol.formulation = ("single-contact TPS (continuum, Green-function quadrature)" if lattice is None
                        else "single-contact TPS (FDA lattice)")
     sol.checks = physical_checks(sol)
+    sol.far_field_stable, sol.far_field_multipliers, note = far_field(flat)
+    sol.checks.far_field_stable = sol.far_field_stable
+    if note:
+        sol.message += "; " + note.rstrip()
     return sol
 
 
@@ -372,7 +377,7 @@ def _inelastic_keywords(what, solver, max_iter, tol, options):
     return kw
 
 
-def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
+def solve_kink(Gamma=None, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
                tc_initial=None, *, half_length=None, n_nodes=defaults.N_NODES, tol=defaults.TOL,
                max_iter=defaults.MAX_ITER, scheme="newton",
                paper_sign=1, min_shift=False, continuation=True, tail_correction=True,
@@ -397,8 +402,10 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
 
     Parameters
     ----------
-    Gamma : float
-        Plate acceleration.
+    Gamma : float, optional
+        Plate acceleration.  Default: ``defaults.GAMMA = 2.5`` for e > 0, and
+        ``defaults.GAMMA_STICK = 4.1`` for e = 0, where the sticking f/2 far field exists
+        (3.857 <= Gamma <= 6.362; at 2.5 the e = 0 layer has no f/2 orbit).
     M : int
         Subharmonic order (M = 2 is f/2).
     e, t0 : float or None
@@ -449,7 +456,9 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         ``callback(state)`` after each Newton step (each accepted point under
         continuation; each sweep of a fixed-point scheme), a
         :class:`~tps_solver.core.progress.ProgressState` with ``stage``, ``iteration``, ``residual`` and ``tc``.
-        A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate.
+        A ``KeyboardInterrupt`` returns ``status=5`` with the last accepted iterate (for
+        ``e = 0``: from any stage, settle, shooting, multipliers, tps or checks, each announced
+        to the callback; see :func:`~tps_solver.solvers.tps.stick_kink.solve_stick_kink`).
     lattice : tps_solver.Lattice, keyword-only
         For ``e = 0`` only: the planar Neumann lattice of the inelastic kink.
     start : {"shooting", "anticontinuum"}, keyword-only
@@ -467,7 +476,11 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         that ends with what to try when it did not converge, ``nodes`` (the nodes
         solved) and ``nodes_requested`` (the grid asked for; they differ only when a
         continuation stopped at ``coupling < 1``).  ``checks.all_pass`` is False
-        unless the run converged.
+        unless the run converged.  ``far_field_stable`` says whether the far-field flat layer is
+        stable (its multipliers in ``far_field_multipliers``); when it is not, the message says
+        so, and the orbit, though converged, cannot be observed.  For ``e = 0``, an orbit that
+        converged to the uniform flat layer (no front left on the lattice) has ``converged``
+        False and ``status = 9``.
 
     Examples
     --------
@@ -497,7 +510,9 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
         from tps_solver.solvers.tps.stick_kink import solve_stick_kink
         if start is not None:
             kw["start"] = start
+        Gamma = defaults.GAMMA_STICK if Gamma is None else Gamma
         return solve_stick_kink(Gamma, M, lattice=lattice, callback=callback, **kw)
+    Gamma = defaults.GAMMA if Gamma is None else Gamma
     if start is not None:
         raise ValueError("start applies to the e = 0 kink only ('shooting' or 'anticontinuum', "
                          "see solve_stick_kink)")
@@ -520,7 +535,7 @@ def solve_kink(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=
                   check_choice(symmetry, "symmetry", ("kink", "even")))
 
 
-def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
+def solve_oscillon(Gamma=None, M=defaults.M, e=None, t0=None, n_harmonics=defaults.N_HARMONICS,
                    tc_initial=None, *, r_max=defaults.R_MAX, n_nodes=defaults.N_NODES,
                    r_core=defaults.R_CORE, tol=defaults.TOL, max_iter=defaults.MAX_ITER,
                    scheme="newton", paper_sign=1, min_shift=False, continuation=True,
@@ -571,7 +586,9 @@ def solve_oscillon(Gamma=defaults.GAMMA, M=defaults.M, e=None, t0=None, n_harmon
         from tps_solver.solvers.tps.stick_kink import solve_stick_oscillon
         if r_core != defaults.R_CORE:
             kw["core_radius"] = r_core
+        Gamma = defaults.GAMMA_STICK if Gamma is None else Gamma
         return solve_stick_oscillon(Gamma, M, lattice=lattice, callback=callback, **kw)
+    Gamma = defaults.GAMMA if Gamma is None else Gamma
     if lattice is not None:
         raise ValueError("lattice applies to the e = 0 oscillon only; for single-contact oscillons on a "
                          "lattice use solve_lattice(lattice, ...)")

@@ -34,12 +34,14 @@ import numpy as np
 
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
+from tps_solver.core.orbit import far_field
+from tps_solver.core.progress import ProgressState, progress_state
 from tps_solver.model.flat import FlatLayer
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.solvers.shooting.periodic import find_periodic_orbit
 from tps_solver.solvers.shooting.symmetric import mirror_symmetric, solve_mirrored
-from tps_solver.solvers.tps.stick import solve_stick_lattice
+from tps_solver.solvers.tps.stick import StickSolution, solve_stick_lattice
 from tps_solver.solvers.tps.stick_pattern import check_with_fda, pattern_from_fda
 
 __all__ = ["solve_stick_kink", "solve_stick_oscillon", "DEFAULT_LENGTH", "DEFAULT_SPACING", "FDA_TOL"]
@@ -91,8 +93,14 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         it, which takes no Newton step when the orbit is accurate).  Slower on these lattices:
         7 s for 6 nodes, 36 s for 10 (validation/stick_discovery.py).
     callback : callable, optional
-        ``callback(state)`` after every Newton step of the shooting and of the TPS (with
-        ``start="anticontinuum"``: after every coupling of the path).
+        ``callback(state)`` at the start of every stage -- ``"settle"``, ``"shooting"``,
+        ``"multipliers"``, ``"tps"``, ``"checks"`` (``state.stage``) -- and within them: once per
+        forcing cycle of the settling run, after every Newton step of the shooting and of the TPS
+        (with ``start="anticontinuum"``: after every coupling of the path); the inner call's own
+        stage is ``state.substage``.  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the callback)
+        in any stage returns ``status = 5`` with the state so far: ``run`` (the settling run),
+        ``orbit`` (the shooting orbit), ``multipliers``, the TPS fields once the TPS has run, and
+        ``interrupted_stage``.
 
     Returns
     -------
@@ -106,7 +114,10 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         front left the lattice), ``core_nodes`` (tuple of int: nodes on the shifted phase at
         the start and after the settling run) and ``seconds`` (Bunch of the stages'
         wall-clock times).  ``checks.all_pass`` is False unless the TPS converged, its
-        physical checks pass, the FDA check passes and the orbit is localized.
+        physical checks pass, the FDA check passes and the orbit is localized.  An orbit that
+        converged to the uniform flat layer is not the kink asked for: ``converged`` False and
+        ``status = 9``.  ``far_field_stable`` (bool) and ``far_field_multipliers`` state whether
+        the far field is stable (:func:`~tps_solver.core.orbit.far_field`).
 
     Raises
     ------
@@ -232,14 +243,103 @@ def _uniform(sol, n_samples=64, rel=1e-3):
     return bool(np.max(np.abs(Z[:, 0] - Z[:, -1])) <= rel * max(float(np.max(np.abs(Z))), 1e-300))
 
 
+class _Interrupted(Exception):
+    """A stage of the pipeline was interrupted; carries the stage's name."""
+
+    def __init__(self, stage):
+        super().__init__(stage)
+        self.stage = stage
+
+
+def _staged(callback, stage):
+    """``callback`` with every state relabelled ``stage`` (the inner call's own stage kept as ``substage``)."""
+    if callback is None:
+        return None
+
+    def relabel(state):
+        callback(ProgressState(dict(state, stage=stage, substage=state.get("stage"))))
+    return relabel
+
+
+def _announce(callback, stage):
+    """Tell the callback that ``stage`` starts (a KeyboardInterrupt raised there stops the call)."""
+    if callback is not None:
+        callback(progress_state(stage, 0))
+
+
+def _multipliers_at(lattice, flat, guess, t_start, max_iter, callback, section="auto"):
+    """The multipliers stage: the FDA period map at an orbit (no Newton step when it is accurate)."""
+    _announce(callback, "multipliers")
+    orbit = find_periodic_orbit(lattice, Gamma=flat.Gamma, M=flat.M, e=0.0, guess=guess, t_start=t_start,
+                                method="exact", max_iter=max_iter, section=section,
+                                callback=_staged(callback, "multipliers"))
+    if orbit.status == 5:
+        raise _Interrupted("multipliers")
+    return orbit
+
+
+def _stopped(stage, lattice, flat, what, state, seconds, clock):
+    """Status 5: the state so far (settling run, shooting orbit, TPS iterate, FDA check)."""
+    sol = state.get("sol")
+    if sol is None:
+        n = lattice.n_nodes            # no TPS fields yet: empty ones, so the result saves and loads
+        sol = StickSolution(nodes=np.asarray(lattice.nodes, float).copy(), lattice=lattice, Gamma=flat.Gamma,
+                            e=0.0, M=flat.M, period=flat.period, flat=flat, nit=0, residual=np.nan,
+                            residual_history=np.empty(0), checks=Bunch(all_pass=False),
+                            contact_times=np.empty((n, 0)), contact_kinds=np.empty((n, 0), dtype="<U6"),
+                            liftoff_times=np.empty((n, 0)), impulses=np.empty((n, 0)),
+                            w_hat=np.empty((0, n), dtype=complex), K=0)
+    orbit = state.get("orbit")
+    mu = state.get("multipliers")
+    done = [name for name in ("settle", "shooting", "multipliers", "tps", "checks") if name in state["done"]]
+    sol.update(converged=False, success=False, status=5, interrupted_stage=stage, orbit=orbit,
+               run=state.get("run"), multipliers=mu, spacing=float(lattice.spacing), localized=False,
+               core_nodes=state.get("core", ()))
+    if "fda_check" not in sol or stage == "checks":
+        sol.fda_check = Bunch(periods=0, contact_error=np.nan, liftoff_error=np.nan, state_defect=np.nan,
+                              passed=False)
+    sol.checks = sol.get("checks") or Bunch()
+    sol.checks.localized = False
+    sol.checks.all_pass = False
+    seconds.total = time.perf_counter() - clock
+    sol.seconds = seconds
+    kept = ", ".join(f"{k} ({v})" for k, v in (("settling run", "run"), ("shooting orbit", "orbit"),
+                                                  ("multipliers", "multipliers"), ("TPS iterate", "fields"))
+                     if (k == "TPS iterate" and state.get("sol") is not None) or
+                     (k != "TPS iterate" and state.get(v) is not None))
+    sol.message = (f"interrupted (KeyboardInterrupt) in the {stage} stage of the e = 0 {what}; stages done: "
+                   f"{', '.join(done) or 'none'}; kept: {kept or 'nothing yet'}. "
+                   + (sol.get("message") or ""))
+    return sol
+
+
 def _discovered(lattice, flat, max_iter, fda_periods, n_basis, tol, callback):
     """The kink found by the TPS itself, its multipliers from the period map at it, the FDA check."""
-    from tps_solver.solvers.tps.stick_discovery import discover_stick_kink
-
     clock = time.perf_counter()
     seconds = Bunch(settle=0.0)
-    sol = discover_stick_kink(lattice, flat.Gamma, flat.M, tol=tol, n_basis=n_basis, callback=callback)
+    state = {"done": set()}
+    try:
+        return _discovered_stages(lattice, flat, max_iter, fda_periods, n_basis, tol, callback, state,
+                                  seconds, clock)
+    except _Interrupted as stop:
+        return _stopped(stop.stage, lattice, flat, "kink", state, seconds, clock)
+
+
+def _discovered_stages(lattice, flat, max_iter, fda_periods, n_basis, tol, callback, state, seconds, clock):
+    from tps_solver.solvers.tps.stick_discovery import discover_stick_kink
+
+    try:
+        _announce(callback, "tps")
+        cb = _staged(callback, "tps")
+        sol = discover_stick_kink(lattice, flat.Gamma, flat.M, tol=tol, n_basis=n_basis, callback=cb)
+    except KeyboardInterrupt:
+        raise _Interrupted("tps") from None
     seconds.tps = time.perf_counter() - clock
+    if sol.status == 5:
+        state["sol"] = sol
+        raise _Interrupted("tps")
+    state["sol"] = sol
+    state["done"].add("tps")
     tick = time.perf_counter()
     orbit, note = None, ""
     if sol.converged:
@@ -247,54 +347,101 @@ def _discovered(lattice, flat, max_iter, fda_periods, n_basis, tol, callback):
         ts = sol.period * np.arange(256) / 256
         t_s = float(ts[int(np.argmax(np.min(sol.height(ts), axis=1)))])
         w_s, z_s = sol.velocity([t_s])[0], np.maximum(sol.height([t_s])[0], 0.0)
-        orbit = find_periodic_orbit(lattice, Gamma=flat.Gamma, M=flat.M, e=0.0, guess=(w_s, z_s),
-                                    t_start=t_s, method="exact", max_iter=max_iter)
+        try:
+            orbit = _multipliers_at(lattice, flat, (w_s, z_s), t_s, max_iter, callback)
+        except KeyboardInterrupt:
+            raise _Interrupted("multipliers") from None
+        state["orbit"] = orbit
         if not orbit.converged:
             note = f"the period map at the TPS orbit did not converge ({orbit.message}); "
     seconds.shooting = time.perf_counter() - tick
     sol.orbit = orbit
     sol.multipliers = orbit.multipliers if orbit is not None and orbit.converged else None
+    state["multipliers"] = sol.multipliers
+    state["done"].add("multipliers")
     if sol.multipliers is None and sol.converged:
         sol.converged = sol.success = False
         sol.status = 2
-    return _checked(sol, lattice, "kink", fda_periods, (), seconds, note, clock)
+    return _checked(sol, lattice, "kink", fda_periods, (), seconds, note, clock, callback=callback,
+                    state=state)
 
 
 def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_periods, n_basis, tol, callback):
     clock = time.perf_counter()
-    Gamma, M, T = flat.Gamma, flat.M, flat.period
     seconds = Bunch()
+    state = {"done": set()}
+    try:
+        return _stages(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_periods, n_basis, tol,
+                       callback, state, seconds, clock)
+    except _Interrupted as stop:
+        return _stopped(stop.stage, lattice, flat, what, state, seconds, clock)
+
+
+def _stages(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_periods, n_basis, tol, callback, state,
+            seconds, clock):
+    Gamma, M, T = flat.Gamma, flat.M, flat.period
     tick = time.perf_counter()
     guess, t_guess, run = (w0, z0), t_start, None
     core = (_shifted_nodes(flat, t_start, w0, z0),)
-    if periods:
-        run = simulate(lattice, Gamma, 0.0, w0, z0, t_start=t_start, t_end=t_start + periods * T,
-                       method="exact")
-        if run.success:
-            guess, t_guess = run, None
-            core += (_shifted_nodes(flat, run.t, run.w, run.zeta),)
+    state["core"] = core
+    try:
+        _announce(callback, "settle")
+        if periods:
+            run = simulate(lattice, Gamma, 0.0, w0, z0, t_start=t_start, t_end=t_start + periods * T,
+                           method="exact", callback=_staged(callback, "settle"))
+            state["run"] = run
+            if run.status == 5:
+                raise _Interrupted("settle")
+            if run.success:
+                guess, t_guess = run, None
+                core += (_shifted_nodes(flat, run.t, run.w, run.zeta),)
+                state["core"] = core
+    except KeyboardInterrupt:
+        raise _Interrupted("settle") from None
+    state["done"].add("settle")
     seconds.settle = time.perf_counter() - tick
     tick = time.perf_counter()
     sym_note, sym_nit = "", None
-    if what == "kink" and mirror_symmetric(lattice):
-        # the kink as a fixed point of the mirrored half-period map (no creeping along the front's
-        # near-neutral translation), then the period map (0 steps) for the multipliers
-        if t_guess is None:
-            w_s, z_s, st_s, t_s = run.w, run.zeta, np.asarray(run.stuck, bool), float(run.t)
-        else:
-            w_s, z_s, st_s, t_s = w0, z0, np.zeros(lattice.n_nodes, bool), t_start
-        found, why, _ = solve_mirrored(lattice, Gamma, 0.0, T, t_s, w_s, z_s, st_s, max_iter=max_iter,
-                                       callback=callback)
-        if found is not None:
-            guess, t_guess, sym_nit = found[:3], t_s, found[3]
-            sym_note = f"mirrored half-period Newton: {found[3]} steps; "
-        else:
-            sym_note = why
-    orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=0.0, guess=guess, t_start=t_guess,
-                                method="exact", max_iter=max_iter, callback=callback)
+    try:
+        _announce(callback, "shooting")
+        if what == "kink" and mirror_symmetric(lattice):
+            # the kink as a fixed point of the mirrored half-period map (no creeping along the front's
+            # near-neutral translation), then the period map (0 steps)
+            if t_guess is None:
+                w_s, z_s, st_s, t_s = run.w, run.zeta, np.asarray(run.stuck, bool), float(run.t)
+            else:
+                w_s, z_s, st_s, t_s = w0, z0, np.zeros(lattice.n_nodes, bool), t_start
+            found, why, _ = solve_mirrored(lattice, Gamma, 0.0, T, t_s, w_s, z_s, st_s, max_iter=max_iter,
+                                           callback=callback)
+            if found is not None:
+                guess, t_guess, sym_nit = found[:3], t_s, found[3]
+                sym_note = f"mirrored half-period Newton: {found[3]} steps; "
+            else:
+                sym_note = why
+        orbit = find_periodic_orbit(lattice, Gamma=Gamma, M=M, e=0.0, guess=guess, t_start=t_guess,
+                                    method="exact", max_iter=max_iter, multipliers=False, callback=callback)
+    except KeyboardInterrupt:
+        raise _Interrupted("shooting") from None
     orbit.symmetric_nit = sym_nit
     if sym_note:
         orbit.message = sym_note + orbit.message
+    state["orbit"] = orbit
+    if orbit.status == 5:
+        raise _Interrupted("shooting")
+    state["done"].add("shooting")
+    if orbit.converged:
+        # the multipliers stage: the period map at the converged orbit (0 Newton steps)
+        try:
+            with_mu = _multipliers_at(lattice, flat, orbit, None, max_iter, callback, section="fixed")
+        except KeyboardInterrupt:
+            raise _Interrupted("multipliers") from None
+        if with_mu.converged:
+            with_mu.symmetric_nit = sym_nit
+            with_mu.message = orbit.message + f"; multipliers from the period map at it ({with_mu.message})"
+            orbit = with_mu
+            state["orbit"] = orbit
+            state["multipliers"] = orbit.multipliers
+        state["done"].add("multipliers")
     seconds.shooting = time.perf_counter() - tick
     tick = time.perf_counter()
     note = ""
@@ -307,8 +454,16 @@ def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_perio
                 note += "the TPS started on the pattern of the settling run. "
             except ValueError:
                 note += "the TPS started on the pattern of the last shooting iterate. "
-    sol = solve_stick_lattice(lattice, Gamma, M, 0.0, pattern=pattern, n_basis=n_basis, tol=tol,
-                              refresh=0, callback=callback)
+    try:
+        _announce(callback, "tps")
+        sol = solve_stick_lattice(lattice, Gamma, M, 0.0, pattern=pattern, n_basis=n_basis, tol=tol,
+                                  refresh=0, callback=_staged(callback, "tps"))
+    except KeyboardInterrupt:
+        raise _Interrupted("tps") from None
+    state["sol"] = sol
+    if sol.status == 5:
+        raise _Interrupted("tps")
+    state["done"].add("tps")
     seconds.tps = time.perf_counter() - tick
     sol.orbit = orbit
     sol.multipliers = orbit.multipliers if orbit.converged else None
@@ -316,17 +471,31 @@ def _pipeline(lattice, flat, w0, z0, t_start, what, periods, max_iter, fda_perio
                        "orbit (find_periodic_orbit after FDA settling)")
     moved = (f"; nodes on the shifted phase: {core[0]} at the start, {core[-1]} after {periods} "
              "settling periods" if len(core) > 1 else "")
-    return _checked(sol, lattice, what, fda_periods, core, seconds, note, clock, moved)
+    return _checked(sol, lattice, what, fda_periods, core, seconds, note, clock, moved, callback=callback,
+                    state=state)
 
 
-def _checked(sol, lattice, what, fda_periods, core, seconds, note, clock, moved=""):
-    """The FDA check of a TPS orbit (stage 4), localisation, timings and the summary flags."""
+def _checked(sol, lattice, what, fda_periods, core, seconds, note, clock, moved="", callback=None, state=None):
+    """The FDA check of a TPS orbit (stage 4), localisation, timings and the summary flags.
+
+    An orbit that converged to the uniform flat layer is not the kink or oscillon asked for:
+    ``converged`` False, status 9.
+    """
     tick = time.perf_counter()
     sol.spacing = float(lattice.spacing)
+    sol.flat = sol.get("flat") or _far_field(sol.Gamma, sol.M)
+    sol.far_field_stable, sol.far_field_multipliers, far_note = far_field(sol.flat)
+    note = far_note + note
     sol.localized = bool(sol.converged) and not _uniform(sol)
     sol.core_nodes = core
     if sol.converged:
-        chk = check_with_fda(sol, periods=fda_periods)
+        try:
+            _announce(callback, "checks")
+            chk = check_with_fda(sol, periods=fda_periods)
+        except KeyboardInterrupt:
+            raise _Interrupted("checks") from None
+        if chk.run.status == 5:
+            raise _Interrupted("checks")
         t_end = chk.run.t
         defect = max(float(np.max(np.abs(chk.run.w - sol.velocity([t_end])[0]))),
                      float(np.max(np.abs(chk.run.zeta - np.maximum(sol.height([t_end])[0], 0.0)))))
@@ -339,10 +508,14 @@ def _checked(sol, lattice, what, fda_periods, core, seconds, note, clock, moved=
                      f"{fda_periods} periods, tolerance {FDA_TOL:g}). ")
         if not sol.localized:
             note += (f"no {what} found: the orbit is uniform (the flat layer), the phase-shifted region "
-                     f"did not survive{moved}. ")
+                     f"did not survive{moved}; converged = False, status 9 (not the orbit asked for). ")
+            sol.converged = sol.success = False
+            sol.status = 9
     else:
         sol.fda_check = Bunch(periods=0, contact_error=np.nan, liftoff_error=np.nan, state_defect=np.nan,
                               passed=False)
+    if state is not None:
+        state["done"].add("checks")
     seconds.fda_check = time.perf_counter() - tick
     seconds.total = time.perf_counter() - clock
     sol.seconds = seconds
