@@ -547,6 +547,10 @@ def front_width(orbit, n_samples=512, instant="far_field_tops", return_times=Fal
         raise ValueError(f"orbit must be a kink on a lattice (with lattice or nodes, height, period), "
                          f"got {type(orbit).__name__}: a flat layer has no front")
     x = np.asarray(nodes, dtype=float)
+    # the heights at every sample and node (float64) and the sample times: 16 bytes and a few
+    # tens of ns per value at least
+    check_cost("front_width", "n_samples", n_samples, 16.0 * n_samples * (x.size + 1), 2e-8 * n_samples * x.size,
+               hint=f"the heights of {x.size} nodes at every sample are held at once")
     t0 = float(getattr(orbit, "t_start", 0.0) or 0.0)
     ts = t0 + orbit.period * np.arange(n_samples) / n_samples
     Z = np.asarray(orbit.height(ts))

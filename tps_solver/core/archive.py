@@ -36,6 +36,7 @@ Examples
 --------
 >>> import os, tempfile
 >>> from tps_solver.core.bunch import Bunch
+from tps_solver.core.costs import format_bytes, memory_limit
 >>> class Toy(Bunch):
 ...     pass
 >>> register("Toy", Toy)
@@ -58,6 +59,7 @@ from io import BytesIO
 import numpy as np
 
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.costs import format_bytes, memory_limit
 
 __all__ = ["save", "load", "register", "registered", "npz_path", "Fields", "FORMAT", "FORMAT_VERSION",
            "MissingFileError"]
@@ -522,11 +524,22 @@ def read_arrays(path):
             sealed = True
         elif tail.startswith(_SEAL[:8]) or declared == _SEAL_LEN:
             raise ValueError(f"{path} cannot be read: its checksum seal is damaged")
+    _check_declared_sizes(path, raw, sealed)
     try:
         archive = np.load(BytesIO(raw), allow_pickle=False)
         if not isinstance(archive, np.lib.npyio.NpzFile):
             raise ValueError(f"{path} is a single .npy array, not a tps_solver result file (.npz)")
         with archive:
+            if not sealed and "format_version" in archive.files:
+                # a versioned file without its seal: the small entry that says whether a seal is
+                # required, before anything else is decompressed
+                try:
+                    version = int(archive["format_version"])
+                except (TypeError, ValueError):
+                    version = None
+                if version is not None and version >= 2:
+                    raise ValueError(f"{path} cannot be read: its checksum seal is missing (the file is "
+                                     f"truncated or was rewritten by another program)")
             out = {k: archive[k] for k in archive.files}
     except zipfile.BadZipFile as exc:
         why = ("its data are damaged (CRC check failed)" if "CRC" in str(exc)
@@ -551,6 +564,32 @@ def read_arrays(path):
                          f"[{type(exc).__name__}: {exc}]") from None
     out["\x00sealed"] = sealed
     return out
+
+
+#: An unsealed file (versions 0 and 1, written by ``numpy.savez_compressed``: float arrays that
+#: compress by a few times at most) may declare at most this many times its size, plus
+#: :data:`UNSEALED_SLACK` bytes, once decompressed; a larger claim is a zip bomb and is refused
+#: before anything is decompressed.
+UNSEALED_RATIO = 50
+UNSEALED_SLACK = 16e6
+
+
+def _check_declared_sizes(path, raw, sealed):
+    """Refuse a file whose members declare more decompressed bytes than it may hold, from the
+    zip directory alone (nothing is decompressed; zipfile never yields more than a member declares)."""
+    try:
+        with zipfile.ZipFile(BytesIO(raw)) as zf:
+            declared = sum(info.file_size for info in zf.infolist())
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError):
+        return                               # not a zip: np.load below says what it is
+    if not sealed and declared > UNSEALED_RATIO * len(raw) + UNSEALED_SLACK:
+        raise ValueError(f"{path} cannot be read: it has no checksum seal and its members declare "
+                         f"{format_bytes(declared)} once decompressed from {format_bytes(len(raw))} (more than "
+                         f"{UNSEALED_RATIO} times its size: a zip bomb or a damaged file); nothing was decompressed")
+    if declared > memory_limit():
+        raise ValueError(f"{path} cannot be read: its members declare {format_bytes(declared)} once decompressed, "
+                         f"above the memory limit {format_bytes(memory_limit())} (raise it with "
+                         "tps_solver.core.costs.set_limits(memory=...))")
 
 
 class _Reader:

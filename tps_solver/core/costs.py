@@ -58,7 +58,7 @@ import sys
 
 __all__ = ["check_cost", "memory_limit", "time_limit", "set_limits", "tps_cost", "lattice_cost",
            "cycle_cost", "harmonics_cost", "blas_threads", "small_dense", "SMALL_DENSE",
-           "format_bytes", "format_seconds"]
+           "format_bytes", "format_seconds", "simulate_cost", "thickness_cost"]
 
 
 #: Lattices up to this many nodes run their dense kernels with one BLAS thread (one thread was
@@ -330,10 +330,32 @@ SIMULATE_SECONDS_PER_CYCLE = 1.0e-5
 SIMULATE_SECONDS_PER_NODE_CYCLE = 3.0e-7
 
 
-def simulate_cost(n_nodes, n_cycles, n_eval=0):
+#: How much slower than point impacts each method is, at least: the measured ratios on a flat layer
+#: of 5 and 41 nodes (point 1.4e-4 to 3.3e-4 s per cycle; exact 1.2e-3 to 1.6e-3, ode 1.1e-2,
+#: soft 2.4e-2 to 2.6e-2, soft-radau 0.42 to 0.51), divided by three or more.
+SIMULATE_METHOD_FACTOR = {"point": 1.0, "exact": 3.0, "ode": 30.0, "soft": 30.0, "soft-radau": 300.0}
+#: A recorded segment (``record_segments=True``): a tuple of three arrays of n values and a mask,
+#: at least one per two forcing cycles (a layer lands at least once per f/2 period).
+SEGMENT_BYTES_PER_NODE = 17.0
+SEGMENT_BYTES = 400.0
+
+
+def simulate_cost(n_nodes, n_cycles, n_eval=0, method=None, record_segments=False):
     r"""A lower bound on the memory and time of :func:`~tps_solver.simulate` over ``n_cycles``
     forcing cycles :math:`2\pi` (at least one event set per cycle and O(n) work per node and
     cycle), with ``n_eval`` output times.
+
+    Parameters
+    ----------
+    n_nodes : int
+    n_cycles : float
+    n_eval : int
+        Output times.
+    method : str, optional
+        A key of ``tps_solver.METHODS``: the time is :data:`SIMULATE_METHOD_FACTOR` times that of
+        point impacts (None: point impacts, the fastest).
+    record_segments : bool
+        Memory of the segment record, one entry per two cycles at least.
 
     Examples
     --------
@@ -342,10 +364,42 @@ def simulate_cost(n_nodes, n_cycles, n_eval=0):
     (1000576, 0.0127)
     >>> simulate_cost(5, 2e9)[1] > 3600                # a billion periods: refused
     True
+    >>> simulate_cost(5, 2e8, method="ode")[1] > 3600  # the ODE is 30x slower at least
+    True
     """
     n, c = float(n_nodes), float(n_cycles)
     nbytes = 2 * 8.0 * n * float(n_eval) + 8.0 * 8 * n + 1e6
-    return nbytes, c * (SIMULATE_SECONDS_PER_CYCLE + n * SIMULATE_SECONDS_PER_NODE_CYCLE)
+    if record_segments:
+        nbytes += 0.5 * c * (SEGMENT_BYTES + SEGMENT_BYTES_PER_NODE * n)
+    factor = SIMULATE_METHOD_FACTOR.get(method, 1.0)
+    return nbytes, factor * c * (SIMULATE_SECONDS_PER_CYCLE + n * SIMULATE_SECONDS_PER_NODE_CYCLE)
+
+
+#: Lower bounds of the thickness integrator (``solve_ivp`` DOP853 between events), measured on a
+#: flat layer of 5 and 41 nodes (0.021-0.027 s per cycle, 1.3e-3 to 8.4e-3 s per event), divided by ten.
+THICKNESS_SECONDS_PER_CYCLE = 2.0e-3
+THICKNESS_SECONDS_PER_EVENT = 1.0e-4
+
+
+def thickness_cost(n_nodes, n_cycles, max_events):
+    r"""Lower bounds on the memory and time of the thickness model's integration over ``n_cycles``
+    forcing cycles, and on the time its event bound ``max_events`` allows (the run stops there).
+
+    Returns
+    -------
+    nbytes, seconds, seconds_of_the_event_bound : float
+
+    Examples
+    --------
+    >>> nbytes, seconds, bound = thickness_cost(5, 1e3, 1e5)
+    >>> round(seconds, 6), round(bound, 6)
+    (2.0, 10.0)
+    >>> thickness_cost(5, 10, 1e12)[2] > 3600          # a bound of 1e12 events is out of reach
+    True
+    """
+    n, c = float(n_nodes), float(n_cycles)
+    nbytes = 64.0 * 8 * 4 * n + 1e6
+    return nbytes, c * THICKNESS_SECONDS_PER_CYCLE, float(max_events) * THICKNESS_SECONDS_PER_EVENT
 
 
 # --------------------------------------------------------------- BLAS threads
