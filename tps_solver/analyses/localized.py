@@ -38,7 +38,8 @@ import time
 import numpy as np
 
 from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive, check_real
-from tps_solver.core.costs import check_cost
+from tps_solver.core.orbit import STATUS
+from tps_solver.core.costs import check_cost, period_map_seconds, shooting_maps
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.model.flat import FlatLayer
 from tps_solver.model.soft_flat import SoftFlatOrbit
@@ -118,6 +119,13 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
     T = flat.period
     if method is None:
         method = "soft" if cutoff is not None else "exact"
+    n = lattice.n_nodes
+    maps = shooting_maps(n, shooting_kw.get("krylov_dim"), 1)
+    check_cost("lattice_kink" if lattice.geometry == "planar" else "lattice_oscillon", "lattice.n_nodes", n,
+               1e6 + 16.0 * (maps + 4 * n) * n,
+               (periods + maps) * period_map_seconds(n, T, method, e if isinstance(e, (int, float)) else None),
+               hint=f"{periods} settling periods and one Newton step of {maps} period maps, of separate "
+                    "contacts at O(n_nodes**2) each; use a coarser lattice or the soft contact")
     sim_kw = dict(simulate_kw or {})
     if cutoff is not None:
         sim_kw["cutoff"] = cutoff
@@ -200,8 +208,10 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
                      "symmetric=False. ")
     orb.localized = bool(orb.converged) and _localized(orb)
     if orb.converged and not orb.localized:
+        # the state asked for was not found: the flags say so (status 2, the result fails a check)
+        orb.update(converged=False, success=False, status=2, status_text=STATUS[2])
         note += ("the phase-shifted region did not survive: the converged orbit is uniform (the flat "
-                 "layer), not a localized state. ")
+                 "layer), not a localized state; converged=False. ")
     if note:
         orb.message = note + orb.message
     return orb

@@ -58,7 +58,8 @@ import sys
 
 __all__ = ["check_cost", "memory_limit", "time_limit", "set_limits", "tps_cost", "lattice_cost",
            "cycle_cost", "harmonics_cost", "blas_threads", "small_dense", "SMALL_DENSE",
-           "format_bytes", "format_seconds", "simulate_cost", "thickness_cost"]
+           "format_bytes", "format_seconds", "simulate_cost", "thickness_cost", "period_map_seconds",
+           "shooting_maps"]
 
 
 #: Lattices up to this many nodes run their dense kernels with one BLAS thread (one thread was
@@ -463,3 +464,60 @@ def _blas_controller():
         _CONTROLLER[:] = [ThreadpoolController(), len(sys.modules)]
     return _CONTROLLER[0]
 
+
+
+# ------------------------------------------------------------------ period maps and shooting
+#: Lower bounds of the exact method's time per period and squared node count once the nodes'
+#: contacts are separate (a kink, a perturbed flat layer, every period map of a shooting Newton
+#: step): measured on a perturbed flat layer at e = 0.45 (2.2e-5 to 4.1e-5 s at 201-801 nodes)
+#: and on the e = 0 kink (1.5e-4 to 1.7e-4 s at 101-201 nodes, four events per node and period),
+#: divided by ten.
+EXACT_SECONDS_PER_NODE2_PERIOD = {"bounce": 2.0e-6, "stick": 1.5e-5}
+#: Lower bound of the impact-and-stick TPS's discovery from the anticontinuum limit per cubed node
+#: count (measured 35 s at 10 nodes and 375 s at 20, validation/stick_discovery.py, divided by ten).
+DISCOVERY_SECONDS_PER_NODE3 = 3.5e-3
+
+
+def period_map_seconds(n_nodes, period, method="exact", e=None):
+    r"""A lower bound on the time of one FDA period of length ``period`` on ``n_nodes`` nodes whose
+    contacts are separate (what a shooting Newton step maps).
+
+    Parameters
+    ----------
+    n_nodes : int
+    period : float
+        The period :math:`2\pi M`.
+    method : str
+        A key of ``tps_solver.METHODS``; the quadratic bound applies to ``"exact"``.
+    e : float or None
+        The restitution (0: sticking orbits, four events per node and period).
+
+    Examples
+    --------
+    >>> round(period_map_seconds(2001, 4 * 3.141592653589793, e=0.0), 1)     # 1.5e-5 n**2
+    60.1
+    >>> period_map_seconds(21, 4 * 3.141592653589793, e=0.45) < 0.01
+    True
+    """
+    n = float(n_nodes)
+    linear = simulate_cost(n_nodes, period / (2.0 * 3.141592653589793), method=method)[1]
+    if method != "exact":
+        return linear
+    kind = "stick" if e is not None and not isinstance(e, str) and float(e) == 0.0 else "bounce"
+    return max(linear, EXACT_SECONDS_PER_NODE2_PERIOD[kind] * n * n)
+
+
+def shooting_maps(n_nodes, krylov_dim=None, max_iter=1):
+    """The period maps of one Newton--GMRES step of the period map on ``n_nodes`` nodes (the first
+    map and ``min(krylov_dim, 2 n) + 1`` more), or 1 when no step is taken.
+
+    Examples
+    --------
+    >>> shooting_maps(2001), shooting_maps(5, krylov_dim=4), shooting_maps(2001, max_iter=0)
+    (102, 6, 1)
+    """
+    if not max_iter:
+        return 1
+    m = 2 * int(n_nodes)
+    k = min(m, 100) if krylov_dim is None else int(krylov_dim)
+    return min(k, m) + 2
