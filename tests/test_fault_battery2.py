@@ -370,3 +370,23 @@ def test_simulate_thickness_returns_status_5_with_its_state_on_ctrl_c():
     assert np.all(np.isfinite(run.w)) and np.all(run.h > 0)
     full = _thickness(t_end=run.t)                     # the state kept is the run's state at run.t
     assert full.status == 0 and np.allclose(full.h, run.h, rtol=0, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_the_second_battery_is_all_good():
+    """validation/fault_battery.py battery2: every case in its own process (about 2 minutes)."""
+    from validation.fault_battery import battery2
+
+    rows = battery2()
+    assert [r[0] for r in rows if r[1] != "good"] == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("Gamma, n_nodes, length", [(3.9, 6, 20.0), (4.1, 7, 21.0)])
+def test_the_anticontinuum_start_answers_with_flags_not_an_internal_error(Gamma, n_nodes, length):
+    """These lattices raised 'pattern.tau must be finite and > t' from inside the discovery."""
+    sol = tps.solve_kink(Gamma, e=0.0, lattice=tps.Lattice.planar(n_nodes=n_nodes, length=length),
+                         start="anticontinuum")
+    assert sol.status in tps.STATUS and bool(sol.converged) == (sol.status == 0)
+    if sol.converged:
+        assert sol.residual <= 1e-9 and sol.fda_check.passed

@@ -20,7 +20,8 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   temporary file in the same directory, then :func:`os.replace`) by the calling
   process as results arrive, so an interrupted sweep leaves only complete
   points behind and a rerun computes only the missing ones.  ``sweep.json``
-  records the task's name; a store written by another task is refused.  A damaged
+  records the task's name; a store written by another task is refused, and a damaged
+  ``sweep.json`` is named in a ``ValueError``.  A damaged
   point file, or one copied over another point's (its stored key differs), is reported
   on the ``tps_solver.sweep`` logger and the point is computed again.
 * **Progress.**  A tqdm bar when tqdm is installed (``pip install
@@ -28,7 +29,8 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   logger (:class:`tps_solver.core.progress.Progress`, the package's one progress display); ``callback(state)`` is called in this process
   after every computed point.
 * **Interruption.**  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the
-  callback) cancels the points not yet started and raises
+  callback) cancels the points not yet started, terminates the workers of the
+  default pool (a point that hangs or spins included, so the process can exit) and raises
   :class:`SweepInterrupted`, a ``KeyboardInterrupt`` carrying the partial
   results; the finished points are in the store.  With ``on_error="raise"``
   an exception raised by the task cancels the points not yet started, waits
@@ -41,7 +43,7 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   NumPy calls do); the points stored so far are kept, and a rerun computes
   the rest.  Workers of an executor passed in are the executor's business.
 * **Faults.**  With ``on_error="record"`` (the default) a point whose task
-  raises an ``Exception`` is a failed point: its place in the results holds a
+  raises an ``Exception`` (or calls ``sys.exit``: a :class:`TaskExit`) is a failed point: its place in the results holds a
   :class:`FailedPoint` (its ``params`` and the ``error`` as
   ``"Type: message"``), the other points go on, whatever the executor, and
   the failure is reported on the ``tps_solver.sweep`` logger (one record per
@@ -685,7 +687,9 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
         On ``KeyboardInterrupt``; ``exc.results`` holds the partial results.
     ValueError
         On bad input: empty or non-finite parameters, a non-callable task, an
-        executor that is not one, an ``on_error`` that is not one of its values.
+        executor that is not one, an ``on_error`` that is not one of its values; a sweep whose
+        own cost (a key per point, a store file per new point, a serial point's thread cap:
+        :func:`tps_solver.core.costs.check_cost`) is out of reach, before any point is expanded.
     Exception
         With ``on_error="raise"``, whatever the task raised, after the
         finished points were stored; whatever the store or the callback
