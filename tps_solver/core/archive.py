@@ -528,16 +528,6 @@ def read_arrays(path):
         if not isinstance(archive, np.lib.npyio.NpzFile):
             raise ValueError(f"{path} is a single .npy array, not a tps_solver result file (.npz)")
         with archive:
-            if not sealed and "format_version" in archive.files:
-                # a versioned file without its seal: the small entry that says whether a seal is
-                # required, before anything else is decompressed
-                try:
-                    version = int(archive["format_version"])
-                except (TypeError, ValueError):
-                    version = None
-                if version is not None and version >= 2:
-                    raise ValueError(f"{path} cannot be read: its checksum seal is missing (the file is "
-                                     f"truncated or was rewritten by another program)")
             out = {k: archive[k] for k in archive.files}
     except zipfile.BadZipFile as exc:
         why = ("its data are damaged (CRC check failed)" if "CRC" in str(exc)
