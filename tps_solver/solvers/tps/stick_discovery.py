@@ -467,17 +467,16 @@ def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0
                 tried.update(q[1:] for q in near)
                 try:
                     pattern = _triggered(pat_ok, near)
-                except ValueError as exc:     # the triggered pattern is not admissible: not a candidate
+                except ValueError as exc:     # no admissible pattern to go on with: the path ends here
                     info.changes.append((nu_ok, f"triggered lift-offs near nodes "
                                                 f"{sorted({int(pat_ok.node[c]) for _, c, _, _ in near})} "
-                                                f"rejected ({exc})"))
-                    pattern = None
-                if pattern is not None:
-                    info.changes += [(nu_ok, f"node {int(pat_ok.node[c])}: lift-off triggered by node "
-                                             f"{int(pat_ok.node[k])}'s landing ({d:.1e} away)")
-                                     for d, c, k, m in near]
-                    nu = nu_ok
-                    continue
+                                                f"give no admissible pattern ({exc})"))
+                    break
+                info.changes += [(nu_ok, f"node {int(pat_ok.node[c])}: lift-off triggered by node "
+                                         f"{int(pat_ok.node[k])}'s landing ({d:.1e} away)")
+                                 for d, c, k, m in near]
+                nu = nu_ok
+                continue
             h /= 2
             pattern = pat_ok
             if h < min_step:
