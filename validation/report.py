@@ -67,6 +67,7 @@ SECTION_ORDER = (
     ("existence_map", "Where kinks and oscillons exist: the existence-stability map"),
     ("house", "One problem, one Newton"),
     ("faults", "Faults: unbounded calls, loose options, interrupts, damaged files"),
+    ("faults2", "Faults, second battery: sizes out of reach, raw inputs, honest flags"),
 )
 
 

@@ -70,9 +70,11 @@ carry the binomial standard error :math:`\sqrt{f(1-f)/n}` and a 95% Wilson
 interval (meaningful also at :math:`f = 0` or 1).
 """
 import contextlib
+import functools
 import math
 import signal
 import threading
+import time
 
 import numpy as np
 
@@ -552,6 +554,18 @@ def _check_range(value, name, low_bound=None):
     return float(arr[0]), float(arr[1])
 
 
+#: Above this many samples the reference engine times its first :data:`_PROBE_SAMPLES` samples and
+#: refuses a run whose pace puts it beyond the time limit (its per-sample time ranges from 0.2 ms
+#: to tens of ms with the attractors: no a-priori bound is useful).
+_PROBE_ABOVE = 4096
+_PROBE_SAMPLES = 16
+
+
+def _keyable(e):
+    """Whether a sweep store can key ``e`` (a number, or a law with parameters)."""
+    return not isinstance(e, RestitutionLaw) or bool(e.parameters)
+
+
 def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None, periods=200, *,
                 p_max=None, tol=1e-8, t_section=0.0, w_range=None, zeta_range=None, stick_velocity=1e-6,
                 integrator="closed_form", soft_sticking=False, max_events_per_cycle=10000, executor="serial",
@@ -675,10 +689,27 @@ def flat_basins(Gamma, e, M=2, n_samples=64, seed=0, model="point", cutoff=None,
         results = _compiled_samples(Gamma, e, w0, z0, t_section, p_max, max_cycles, tol, stick_velocity,
                                     max_events, progress)
     else:
+        task = _basin_sample
+        if not _keyable(e):
+            # a user's function has no parameters to key a store by: it goes with the task, not the points
+            if store is not None:
+                raise ValueError(f"store cannot be used with e = {e!r}: a user's function has no parameters to "
+                                 "key the stored samples by; run without store")
+            task = functools.partial(_basin_sample, e=e)
+            del common["e"]
+        if n_samples > _PROBE_ABOVE:
+            # the reference engine's pace varies with the attractors: time a few samples first
+            tic = time.perf_counter()
+            for a, b in zip(w0[:_PROBE_SAMPLES], z0[:_PROBE_SAMPLES]):
+                task(**dict(common, w0=float(a), zeta0=float(b)))
+            pace = (time.perf_counter() - tic) / _PROBE_SAMPLES
+            check_cost("flat_basins", "n_samples", n_samples, 1.0e3 * n_samples + 1e6, pace * n_samples,
+                       hint=f"engine='reference': the first {_PROBE_SAMPLES} samples took {pace:.3g} s each"
+                            + (f" ({why_not})" if why_not else ""))
         params = [dict(common, w0=float(a), zeta0=float(b)) for a, b in zip(w0, z0)]
         try:
             # a sample that raises is a bug, not a fault of the sample (those are status 'failed'): raise it
-            results = sweep(_basin_sample, params, executor=executor, store=store, progress=progress,
+            results = sweep(task, params, executor=executor, store=store, progress=progress,
                             on_error="raise")
         except SweepInterrupted as exc:
             # Ctrl-C: classify the samples that finished (status 5); the store keeps them for a rerun

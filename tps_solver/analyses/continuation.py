@@ -75,6 +75,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.checks import check_bool, check_choice, check_int, check_positive, check_real
 from tps_solver.core.bunch import Bunch
+from tps_solver.core.costs import check_cost
 from tps_solver.core.newton import newton
 from tps_solver.core.progress import progress_state
 from tps_solver.core.orbit import STATUS
@@ -249,6 +250,10 @@ class Branch(Bunch):
 
 _LABELS = {"Gamma": r"$\Gamma = A\omega^2/g$", "e": "restitution $e$",
            "spacing": "node spacing (viscous lengths)"}
+
+#: Lower bound of the time of one continuation point (a corrector solve and its multipliers):
+#: measured 1.5e-3 s per point on the flat layer, the smallest problem, divided by ten.
+_POINT_SECONDS = 1.5e-4
 
 
 def load_branch(path):
@@ -782,6 +787,10 @@ def continue_branch(start, parameter="Gamma", bounds=None, *, step=None, max_ste
     if min_step > step or step > max_step:
         raise ValueError(f"steps must satisfy min_step <= step <= max_step, got {min_step}, {step}, {max_step}")
     max_points = check_int(max_points, "max_points", minimum=2)
+    check_cost("continue_branch", "max_points", max_points, 3 * 8.0 * (np.size(problem.x0) + 1) * max_points,
+               _POINT_SECONDS * max_points,
+               hint=f"the point limit bounds the run: each point is a corrector solve and its multipliers"
+                    f"{'; with max_step = %g the interval needs about %.3g points' % (max_step, width / max_step)}")
     tol = check_positive(tol, "tol")
     tol_special = check_positive(tol_special, "tol_special")
     if direction not in (1, -1):

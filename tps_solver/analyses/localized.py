@@ -39,7 +39,8 @@ import numpy as np
 
 from tps_solver.core.orbit import STATUS, far_field
 from tps_solver.core.checks import check_choice, check_int, check_nonnegative, check_positive, check_real
-from tps_solver.core.costs import check_cost
+from tps_solver.core.orbit import STATUS
+from tps_solver.core.costs import check_cost, period_map_seconds, shooting_maps
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
 from tps_solver.model.flat import FlatLayer
 from tps_solver.model.soft_flat import SoftFlatOrbit
@@ -119,6 +120,13 @@ def _settle_and_solve(lattice, flat, state, t_start, Gamma, M, e, cutoff, period
     T = flat.period
     if method is None:
         method = "soft" if cutoff is not None else "exact"
+    n = lattice.n_nodes
+    maps = shooting_maps(n, shooting_kw.get("krylov_dim"), 1)
+    check_cost("lattice_kink" if lattice.geometry == "planar" else "lattice_oscillon", "lattice.n_nodes", n,
+               1e6 + 16.0 * (maps + 4 * n) * n,
+               (periods + maps) * period_map_seconds(n, T, method, e if isinstance(e, (int, float)) else None),
+               hint=f"{periods} settling periods and one Newton step of {maps} period maps, of separate "
+                    "contacts at O(n_nodes**2) each; use a coarser lattice or the soft contact")
     sim_kw = dict(simulate_kw or {})
     if cutoff is not None:
         sim_kw["cutoff"] = cutoff
@@ -557,6 +565,10 @@ def front_width(orbit, n_samples=512, instant="far_field_tops", return_times=Fal
         raise ValueError(f"orbit must be a kink on a lattice (with lattice or nodes, height, period), "
                          f"got {type(orbit).__name__}: a flat layer has no front")
     x = np.asarray(nodes, dtype=float)
+    # the heights at every sample and node (float64) and the sample times: 16 bytes and a few
+    # tens of ns per value at least
+    check_cost("front_width", "n_samples", n_samples, 16.0 * n_samples * (x.size + 1), 2e-8 * n_samples * x.size,
+               hint=f"the heights of {x.size} nodes at every sample are held at once")
     t0 = float(getattr(orbit, "t_start", 0.0) or 0.0)
     ts = t0 + orbit.period * np.arange(n_samples) / n_samples
     Z = np.asarray(orbit.height(ts))

@@ -215,6 +215,12 @@ def _uniform_multipliers(lattice, Gamma, e, w, z, t_s, T, method, kw, h=1e-6, ti
     return floquet_multipliers(J)
 
 
+#: Lower bound of the exact method's time per period and squared node count when the contacts are
+#: separate (a perturbed flat layer: measured 2.2e-5 to 4.1e-5 s at 201-801 nodes, divided by ten).
+_EXACT_SECONDS_PER_NODE2_PERIOD = 2.0e-6
+_FLOP_RATE = 5.0e9           # dense flops per second, as in tps_solver.core.costs
+
+
 def _full_jacobian(lattice, Gamma, e, w, z, t_s, T, method, kw, h, tick=None):
     """One-sided (forward, backward) Jacobians of the period map in (w, zeta), absolute step h
     (perturbed heights clipped at 0)."""
@@ -320,7 +326,8 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     boundary : {"neumann", "pinned"}, optional
         Planar boundary; default ``"neumann"`` for flat layers, ``"pinned"`` for kinks.
     perturbation : float
-        Size of the random zero-mean perturbation relative to max(1, |w|, zeta), > 0.  It must
+        Size of the random zero-mean perturbation relative to max(1, |w|, zeta), > 0 and below
+        ``saturation`` (a larger one is outside the linear regime and is refused).  It must
         exceed the simultaneity window ``time_tol`` times the impact speed by a wide margin, or
         the perturbed contacts are merged into one set and the impact-order effect of hazard 7 of docs/design.md
         is regularised away (a note is added to the message).
@@ -372,6 +379,10 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
     jacobian_rtol = check_positive(jacobian_rtol, "jacobian_rtol")
     defect_tol = check_positive(defect_tol, "defect_tol")
     saturation = check_positive(saturation, "saturation")
+    if not perturbation < saturation:
+        raise ValueError(f"perturbation must be < saturation = {saturation:g} (the distance where the linear "
+                         f"regime ends: a larger kick measures a nonlinear response, not the multipliers), got "
+                         f"{perturbation!r}; lower perturbation (default 1e-8) or raise saturation")
     if boundary is not None:
         boundary = check_choice(boundary, "boundary", ("neumann", "pinned"))
     if callback is not None and not callable(callback):
@@ -432,9 +443,20 @@ def check_stability(solution, periods=20, n_nodes=None, method="exact", *, lengt
                          f"lattice), got {type(solution).__name__}")
 
     n_cycles = periods * T / (2.0 * math.pi)
-    nbytes, seconds = simulate_cost(lattice.n_nodes, n_cycles, periods + 1)
+    n = lattice.n_nodes
+    nbytes, seconds = simulate_cost(n, n_cycles, periods + 1, method=method)
+    if method == "exact":
+        # the perturbed run separates the contacts: n events per period at O(n) work each at least
+        seconds = max(seconds, periods * _EXACT_SECONDS_PER_NODE2_PERIOD * n * n)
     check_cost("check_stability", "periods", periods, 2 * nbytes, 2 * seconds,
-               hint=f"two runs of {periods} periods on {lattice.n_nodes} nodes")
+               hint=f"two runs of {periods} periods on {n} nodes")
+    if jacobian:
+        period_seconds = seconds / periods
+        jac_seconds = (4 * n + 1) * period_seconds + 10.0 * (2 * n) ** 3 / _FLOP_RATE
+        check_cost("check_stability", "n_nodes (with jacobian=True)", n, 2 * nbytes + 4 * 8.0 * (2 * n) ** 2,
+                   2 * seconds + jac_seconds,
+                   hint=f"the full Jacobian costs 4 n_nodes + 1 = {4 * n + 1} more periods and a dense "
+                        f"{2 * n} x {2 * n} eigenproblem; use fewer nodes, or jacobian=False")
     with blas_threads(1, enabled=small_dense(lattice.n_nodes)):
         return _measure(solution, flat, lattice, Gamma, e, T, t_s, w0, z0, periods, method, kw, notes,
                         perturbation, seed, jacobian, jacobian_step, jacobian_rtol, defect_tol,

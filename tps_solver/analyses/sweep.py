@@ -20,7 +20,8 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   temporary file in the same directory, then :func:`os.replace`) by the calling
   process as results arrive, so an interrupted sweep leaves only complete
   points behind and a rerun computes only the missing ones.  ``sweep.json``
-  records the task's name; a store written by another task is refused.  A damaged
+  records the task's name; a store written by another task is refused, and a damaged
+  ``sweep.json`` is named in a ``ValueError``.  A damaged
   point file, or one copied over another point's (its stored key differs), is reported
   on the ``tps_solver.sweep`` logger and the point is computed again.
 * **Progress.**  A tqdm bar when tqdm is installed (``pip install
@@ -28,7 +29,8 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   logger (:class:`tps_solver.core.progress.Progress`, the package's one progress display); ``callback(state)`` is called in this process
   after every computed point.
 * **Interruption.**  A ``KeyboardInterrupt`` (Ctrl-C, or raised by the
-  callback) cancels the points not yet started and raises
+  callback) cancels the points not yet started, terminates the workers of the
+  default pool (a point that hangs or spins included, so the process can exit) and raises
   :class:`SweepInterrupted`, a ``KeyboardInterrupt`` carrying the partial
   results; the finished points are in the store.  With ``on_error="raise"``
   an exception raised by the task cancels the points not yet started, waits
@@ -41,7 +43,7 @@ r"""Parameter sweeps on any :class:`concurrent.futures.Executor`, resumable thro
   NumPy calls do); the points stored so far are kept, and a rerun computes
   the rest.  Workers of an executor passed in are the executor's business.
 * **Faults.**  With ``on_error="record"`` (the default) a point whose task
-  raises an ``Exception`` is a failed point: its place in the results holds a
+  raises an ``Exception`` (or calls ``sys.exit``: a :class:`TaskExit`) is a failed point: its place in the results holds a
   :class:`FailedPoint` (its ``params`` and the ``error`` as
   ``"Type: message"``), the other points go on, whatever the executor, and
   the failure is reported on the ``tps_solver.sweep`` logger (one record per
@@ -92,6 +94,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_real
+from tps_solver.core.costs import check_cost
 from tps_solver.model.restitution import RestitutionLaw
 from tps_solver.core.progress import Progress, progress_state
 
@@ -102,6 +105,13 @@ _MANIFEST = "sweep.json"
 _STORE_FORMAT = 2
 _ON_ERROR = ("record", "raise")
 _PARENT_POLL = 0.5                  # seconds between two checks of a default-pool worker that its parent lives
+# The sweep's own cost per point (not the task's), measured on the project machine and halved (lower
+# bounds): its key (SHA-256 of the canonical params, 15 us), a parameter dict of the product (about
+# 1 kB with its key), a sealed store file (0.65 ms), a serial point's BLAS-thread cap (0.4 ms).
+_KEY_SECONDS = 7e-6
+_POINT_BYTES = 1000.0
+_STORE_SECONDS = 3e-4
+_THREADS_SECONDS = 2e-4
 
 
 class StorePoint(Bunch):
@@ -307,6 +317,9 @@ def _expand(params):
                 _check_value(v, f"params[{key!r}]")
             keys.append(key)
             values.append(vals)
+        n_points = math.prod(len(v) for v in values)
+        check_cost("sweep", "params (the product of the lists' lengths)", n_points, _POINT_BYTES * n_points,
+                   _KEY_SECONDS * n_points, hint="sweep fewer values, or several smaller sweeps into one store")
         return [dict(zip(keys, combo)) for combo in itertools.product(*values)]
     if not isinstance(params, (list, tuple)):
         raise ValueError(f"params must be a list of dicts or a dict of lists, got {type(params).__name__}")
@@ -381,6 +394,26 @@ def param_key(p):
 
 
 # ------------------------------------------------------------------- the store
+def _check_overhead(params, store, executor, threads):
+    """Refuse a sweep whose own overhead (keys, store files, thread caps) is out of reach, before
+    its points are expanded (the task's cost is the task's business)."""
+    if isinstance(params, dict) and all(hasattr(v, "__len__") for v in params.values()):
+        n = math.prod(len(v) for v in params.values())
+    elif isinstance(params, (list, tuple)):
+        n = len(params)
+    else:
+        return                                      # malformed: _expand says how
+    n_new = n
+    if store is not None and Path(store).is_dir():  # points already stored cost only their key
+        n_new = max(n - sum(1 for f in os.scandir(store) if f.name.endswith(".npz")), 0)
+    serial = isinstance(executor, str) and executor == "serial"
+    check_cost("sweep", "params (the number of points)", n, _POINT_BYTES * n,
+               _KEY_SECONDS * n + n_new * ((_STORE_SECONDS if store is not None else 0.0)
+                                           + (_THREADS_SECONDS if serial and threads is not None else 0.0)),
+               hint="the sweep's own cost per point: its key, its store file, a serial point's thread "
+                    "cap; sweep fewer points, or several smaller sweeps into one store")
+
+
 def _task_name(task):
     func = getattr(task, "func", task)          # functools.partial
     name = f"{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', type(func).__name__)}"
@@ -397,7 +430,14 @@ def _open_store(store, task):
     manifest = path / _MANIFEST
     name = _task_name(task)
     if manifest.exists():
-        info = json.loads(manifest.read_text())
+        try:
+            info = json.loads(manifest.read_text())
+            if not isinstance(info, dict):
+                raise ValueError(f"a JSON object was expected, got {type(info).__name__}")
+        except (ValueError, UnicodeDecodeError) as exc:   # json.JSONDecodeError is a ValueError
+            raise ValueError(f"store {str(path)!r}: its index {str(manifest)!r} is damaged ({exc}); the point "
+                             f"files are checked one by one, so delete {_MANIFEST} to reuse them for this task, "
+                             "or use another store directory") from None
         if info.get("task") != name:
             raise ValueError(f"store {str(path)!r} holds results of task {info.get('task')!r}, "
                              f"not {name!r}; use another store directory")
@@ -498,7 +538,37 @@ def _run(task, params, threads, caller_pid):
     if threads is not None and os.getpid() != caller_pid:
         from threadpoolctl import threadpool_limits
         threadpool_limits(limits=threads)
-    return task(**params)
+    return _call(task, params)
+
+
+class TaskExit(RuntimeError):
+    """A task called ``sys.exit`` (raised ``SystemExit``): a failure of its point, not the sweep's end."""
+
+
+def _call(task, params):
+    """``task(**params)``, with ``SystemExit`` turned into :class:`TaskExit` (an ``Exception``)."""
+    try:
+        return task(**params)
+    except SystemExit as exc:
+        raise TaskExit(f"the task called sys.exit({exc.code!r})") from None
+
+
+def _terminate_workers(ex):
+    """Terminate the worker processes of an owned process pool (a hung or spinning point included).
+
+    ``shutdown(wait=False)`` leaves running workers alive, and the interpreter's exit joins them:
+    a point that never returns would keep the process from exiting.
+    """
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    ex.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(5.0)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(5.0)
 
 
 def _watch_parent(parent_pid):
@@ -617,7 +687,9 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
         On ``KeyboardInterrupt``; ``exc.results`` holds the partial results.
     ValueError
         On bad input: empty or non-finite parameters, a non-callable task, an
-        executor that is not one, an ``on_error`` that is not one of its values.
+        executor that is not one, an ``on_error`` that is not one of its values; a sweep whose
+        own cost (a key per point, a store file per new point, a serial point's thread cap:
+        :func:`tps_solver.core.costs.check_cost`) is out of reach, before any point is expanded.
     Exception
         With ``on_error="raise"``, whatever the task raised, after the
         finished points were stored; whatever the store or the callback
@@ -634,8 +706,8 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
     """
     if not callable(task):
         raise ValueError(f"task must be a callable of keyword arguments, got {type(task).__name__}")
+    _check_overhead(params, store, executor, threads)
     points = _expand(params)
-    keys = [param_key(p) for p in points]
     if callback is not None and not callable(callback):
         raise ValueError(f"callback must be callable(done, total, params, result), got {type(callback).__name__}")
     if progress is not None and not isinstance(progress, (bool, np.bool_)):
@@ -655,6 +727,7 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
             raise ValueError(f"task must be picklable to run in worker processes (a module-level function, "
                              f"not a lambda or closure), got {task!r}: {exc}") from None
     path = _open_store(store, task) if store is not None else None
+    keys = [param_key(p) for p in points]
 
     n = len(points)
     results = SweepResults([None] * n)
@@ -715,7 +788,7 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
                 p = points[positions[k][0]]
                 try:
                     with _limits(threads):
-                        value = task(**p)
+                        value = _call(task, p)
                 except KeyboardInterrupt as exc:
                     raise interrupted(exc) from exc
                 except Exception as exc:
@@ -749,7 +822,7 @@ def sweep(task, params, executor=None, store=None, *, callback=None, progress=No
             for fut in pending:
                 fut.cancel()
             if owned:
-                ex.shutdown(wait=False, cancel_futures=True)
+                _terminate_workers(ex)
                 owned = False
             raise interrupted(exc) from exc
         except Exception as exc:

@@ -522,6 +522,7 @@ def read_arrays(path):
             sealed = True
         elif tail.startswith(_SEAL[:8]) or declared == _SEAL_LEN:
             raise ValueError(f"{path} cannot be read: its checksum seal is damaged")
+    _check_declared_sizes(path, raw, sealed)
     try:
         archive = np.load(BytesIO(raw), allow_pickle=False)
         if not isinstance(archive, np.lib.npyio.NpzFile):
@@ -551,6 +552,41 @@ def read_arrays(path):
                          f"[{type(exc).__name__}: {exc}]") from None
     out["\x00sealed"] = sealed
     return out
+
+
+#: An unsealed file (versions 0 and 1, written by ``numpy.savez_compressed``: float arrays that
+#: compress by a few times at most) may declare at most this many times its size, plus
+#: :data:`UNSEALED_SLACK` bytes, once decompressed; a larger claim is a zip bomb and is refused
+#: before anything is decompressed.
+UNSEALED_RATIO = 50
+UNSEALED_SLACK = 16e6
+
+
+def _available_memory():
+    """Bytes the OS reports as available, or None (this module imports nothing of the package but
+    ``bunch``, so it asks the OS itself)."""
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _check_declared_sizes(path, raw, sealed):
+    """Refuse a file whose members declare more decompressed bytes than it may hold, from the
+    zip directory alone (nothing is decompressed; zipfile never yields more than a member declares)."""
+    try:
+        with zipfile.ZipFile(BytesIO(raw)) as zf:
+            declared = sum(info.file_size for info in zf.infolist())
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError):
+        return                               # not a zip: np.load below says what it is
+    if not sealed and declared > UNSEALED_RATIO * len(raw) + UNSEALED_SLACK:
+        raise ValueError(f"{path} cannot be read: it has no checksum seal and its members declare "
+                         f"{declared / 1e6:.4g} MB once decompressed from {len(raw) / 1e6:.4g} MB (more than "
+                         f"{UNSEALED_RATIO} times its size: a zip bomb or a damaged file); nothing was decompressed")
+    avail = _available_memory()
+    if avail is not None and declared > 0.8 * avail:
+        raise ValueError(f"{path} cannot be read: its members declare {declared / 1e6:.4g} MB once decompressed, "
+                         f"more than 80 % of the memory available ({avail / 1e6:.4g} MB)")
 
 
 class _Reader:

@@ -12,8 +12,14 @@ import numpy as np
 
 __all__ = [
     "check_real", "check_positive", "check_nonnegative", "check_in_range",
-    "check_restitution", "check_int", "check_choice", "check_array", "check_bool",
+    "check_restitution", "check_int", "check_choice", "check_array", "check_bool", "check_state_scale",
+    "STATE_SCALE",
 ]
+
+#: The largest magnitude of a state variable (velocity, height, thickness, in plate units) that the
+#: integrators take: their flight algebra squares states and multiplies them by times, and 1e300
+#: squared overflows (1e100 leaves room for products with times and coefficients).
+STATE_SCALE = 1e100
 
 
 def check_bool(value, name):
@@ -232,3 +238,23 @@ def check_array(value, name, *, shape=None, ndim=None, dtype=float, finite=True)
     if finite and not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
     return arr
+
+
+def check_state_scale(values, name, scale=None):
+    """Refuse a state array whose entries exceed :data:`STATE_SCALE` in magnitude (finite ones).
+
+    Examples
+    --------
+    >>> check_state_scale(np.array([1.0, -2.0]), "w0")
+    >>> check_state_scale(np.array([1e300]), "w0")
+    Traceback (most recent call last):
+    ...
+    ValueError: w0 must hold values of magnitude <= 1e+100 (plate units; larger ones overflow the flight algebra), got 1e+300
+    """
+    scale = STATE_SCALE if scale is None else scale
+    a = np.asarray(values, dtype=float)
+    if a.size:
+        big = float(np.max(np.abs(a)))
+        if big > scale:
+            raise ValueError(f"{name} must hold values of magnitude <= {scale:g} (plate units; larger ones "
+                             f"overflow the flight algebra), got {big!r}")

@@ -58,7 +58,8 @@ import sys
 
 __all__ = ["check_cost", "memory_limit", "time_limit", "set_limits", "tps_cost", "lattice_cost",
            "cycle_cost", "harmonics_cost", "blas_threads", "small_dense", "SMALL_DENSE",
-           "format_bytes", "format_seconds"]
+           "format_bytes", "format_seconds", "simulate_cost", "thickness_cost", "period_map_seconds",
+           "shooting_maps"]
 
 
 #: Lattices up to this many nodes run their dense kernels with one BLAS thread (one thread was
@@ -330,10 +331,32 @@ SIMULATE_SECONDS_PER_CYCLE = 1.0e-5
 SIMULATE_SECONDS_PER_NODE_CYCLE = 3.0e-7
 
 
-def simulate_cost(n_nodes, n_cycles, n_eval=0):
+#: How much slower than point impacts each method is, at least: the measured ratios on a flat layer
+#: of 5 and 41 nodes (point 1.4e-4 to 3.3e-4 s per cycle; exact 1.2e-3 to 1.6e-3, ode 1.1e-2,
+#: soft 2.4e-2 to 2.6e-2, soft-radau 0.42 to 0.51), divided by three or more.
+SIMULATE_METHOD_FACTOR = {"point": 1.0, "exact": 3.0, "ode": 30.0, "soft": 30.0, "soft-radau": 300.0}
+#: A recorded segment (``record_segments=True``): a tuple of three arrays of n values and a mask,
+#: at least one per two forcing cycles (a layer lands at least once per f/2 period).
+SEGMENT_BYTES_PER_NODE = 17.0
+SEGMENT_BYTES = 400.0
+
+
+def simulate_cost(n_nodes, n_cycles, n_eval=0, method=None, record_segments=False):
     r"""A lower bound on the memory and time of :func:`~tps_solver.simulate` over ``n_cycles``
     forcing cycles :math:`2\pi` (at least one event set per cycle and O(n) work per node and
     cycle), with ``n_eval`` output times.
+
+    Parameters
+    ----------
+    n_nodes : int
+    n_cycles : float
+    n_eval : int
+        Output times.
+    method : str, optional
+        A key of ``tps_solver.METHODS``: the time is :data:`SIMULATE_METHOD_FACTOR` times that of
+        point impacts (None: point impacts, the fastest).
+    record_segments : bool
+        Memory of the segment record, one entry per two cycles at least.
 
     Examples
     --------
@@ -342,10 +365,42 @@ def simulate_cost(n_nodes, n_cycles, n_eval=0):
     (1000576, 0.0127)
     >>> simulate_cost(5, 2e9)[1] > 3600                # a billion periods: refused
     True
+    >>> simulate_cost(5, 2e8, method="ode")[1] > 3600  # the ODE is 30x slower at least
+    True
     """
     n, c = float(n_nodes), float(n_cycles)
     nbytes = 2 * 8.0 * n * float(n_eval) + 8.0 * 8 * n + 1e6
-    return nbytes, c * (SIMULATE_SECONDS_PER_CYCLE + n * SIMULATE_SECONDS_PER_NODE_CYCLE)
+    if record_segments:
+        nbytes += 0.5 * c * (SEGMENT_BYTES + SEGMENT_BYTES_PER_NODE * n)
+    factor = SIMULATE_METHOD_FACTOR.get(method, 1.0)
+    return nbytes, factor * c * (SIMULATE_SECONDS_PER_CYCLE + n * SIMULATE_SECONDS_PER_NODE_CYCLE)
+
+
+#: Lower bounds of the thickness integrator (``solve_ivp`` DOP853 between events), measured on a
+#: flat layer of 5 and 41 nodes (0.021-0.027 s per cycle, 1.3e-3 to 8.4e-3 s per event), divided by ten.
+THICKNESS_SECONDS_PER_CYCLE = 2.0e-3
+THICKNESS_SECONDS_PER_EVENT = 1.0e-4
+
+
+def thickness_cost(n_nodes, n_cycles, max_events):
+    r"""Lower bounds on the memory and time of the thickness model's integration over ``n_cycles``
+    forcing cycles, and on the time its event bound ``max_events`` allows (the run stops there).
+
+    Returns
+    -------
+    nbytes, seconds, seconds_of_the_event_bound : float
+
+    Examples
+    --------
+    >>> nbytes, seconds, bound = thickness_cost(5, 1e3, 1e5)
+    >>> round(seconds, 6), round(bound, 6)
+    (2.0, 10.0)
+    >>> thickness_cost(5, 10, 1e12)[2] > 3600          # a bound of 1e12 events is out of reach
+    True
+    """
+    n, c = float(n_nodes), float(n_cycles)
+    nbytes = 64.0 * 8 * 4 * n + 1e6
+    return nbytes, c * THICKNESS_SECONDS_PER_CYCLE, float(max_events) * THICKNESS_SECONDS_PER_EVENT
 
 
 # --------------------------------------------------------------- BLAS threads
@@ -409,3 +464,60 @@ def _blas_controller():
         _CONTROLLER[:] = [ThreadpoolController(), len(sys.modules)]
     return _CONTROLLER[0]
 
+
+
+# ------------------------------------------------------------------ period maps and shooting
+#: Lower bounds of the exact method's time per period and squared node count once the nodes'
+#: contacts are separate (a kink, a perturbed flat layer, every period map of a shooting Newton
+#: step): measured on a perturbed flat layer at e = 0.45 (2.2e-5 to 4.1e-5 s at 201-801 nodes)
+#: and on the e = 0 kink (1.5e-4 to 1.7e-4 s at 101-201 nodes, four events per node and period),
+#: divided by ten.
+EXACT_SECONDS_PER_NODE2_PERIOD = {"bounce": 2.0e-6, "stick": 1.5e-5}
+#: Lower bound of the impact-and-stick TPS's discovery from the anticontinuum limit per cubed node
+#: count (measured 35 s at 10 nodes and 375 s at 20, validation/stick_discovery.py, divided by ten).
+DISCOVERY_SECONDS_PER_NODE3 = 3.5e-3
+
+
+def period_map_seconds(n_nodes, period, method="exact", e=None):
+    r"""A lower bound on the time of one FDA period of length ``period`` on ``n_nodes`` nodes whose
+    contacts are separate (what a shooting Newton step maps).
+
+    Parameters
+    ----------
+    n_nodes : int
+    period : float
+        The period :math:`2\pi M`.
+    method : str
+        A key of ``tps_solver.METHODS``; the quadratic bound applies to ``"exact"``.
+    e : float or None
+        The restitution (0: sticking orbits, four events per node and period).
+
+    Examples
+    --------
+    >>> round(period_map_seconds(2001, 4 * 3.141592653589793, e=0.0), 1)     # 1.5e-5 n**2
+    60.1
+    >>> period_map_seconds(21, 4 * 3.141592653589793, e=0.45) < 0.01
+    True
+    """
+    n = float(n_nodes)
+    linear = simulate_cost(n_nodes, period / (2.0 * 3.141592653589793), method=method)[1]
+    if method != "exact":
+        return linear
+    kind = "stick" if e is not None and not isinstance(e, str) and float(e) == 0.0 else "bounce"
+    return max(linear, EXACT_SECONDS_PER_NODE2_PERIOD[kind] * n * n)
+
+
+def shooting_maps(n_nodes, krylov_dim=None, max_iter=1):
+    """The period maps of one Newton--GMRES step of the period map on ``n_nodes`` nodes (the first
+    map and ``min(krylov_dim, 2 n) + 1`` more), or 1 when no step is taken.
+
+    Examples
+    --------
+    >>> shooting_maps(2001), shooting_maps(5, krylov_dim=4), shooting_maps(2001, max_iter=0)
+    (102, 6, 1)
+    """
+    if not max_iter:
+        return 1
+    m = 2 * int(n_nodes)
+    k = min(m, 100) if krylov_dim is None else int(krylov_dim)
+    return min(k, m) + 2

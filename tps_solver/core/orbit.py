@@ -53,7 +53,7 @@ STATUS = {
     6: "event bound exceeded",
     7: "stuck set changed at the section",
     8: "singular or non-finite Jacobian",
-    9: "not the orbit asked for (converged to the uniform flat layer)",
+    9: "not the orbit asked for (the uniform flat layer, or a shorter period repeated)",
 }
 
 

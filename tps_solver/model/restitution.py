@@ -51,7 +51,8 @@ import numbers
 import numpy as np
 
 from tps_solver.core import archive
-from tps_solver.core.checks import check_in_range, check_positive, check_real
+from tps_solver.core.checks import check_in_range, check_int, check_positive, check_real
+from tps_solver.core.costs import check_cost
 
 __all__ = ["RestitutionLaw", "ConstantRestitution", "ViscoelasticRestitution", "PowerLawRestitution",
            "CallableRestitution", "ThicknessRestitution", "as_restitution", "viscoelastic_restitution", "viscoelastic_c1"]
@@ -163,6 +164,9 @@ class RestitutionLaw:
         """
         v = float(v)
         gamma = check_positive(gamma, "gamma")
+        max_impacts = check_int(max_impacts, "max_impacts", minimum=1)
+        check_cost(f"{type(self).__name__}.chatter_tail", "max_impacts", max_impacts, 1e6,
+                   _IMPACT_SECONDS * max_impacts, hint="the sequence is iterated impact by impact up to this bound")
         if not (math.isfinite(v) and v >= 0.0):
             raise ValueError(f"v must be a finite number >= 0, got {v!r}")
         if v == 0.0:
@@ -204,6 +208,11 @@ class RestitutionLaw:
 
     def __hash__(self):
         return hash((type(self).__name__, tuple(sorted(self.parameters.items()))))
+
+
+#: Lower bound of the time of one iterated impact of a chatter sequence (measured 1.1e-4 s for the
+#: power law, 4.4e-4 s for the viscoelastic law, divided by ten).
+_IMPACT_SECONDS = 1.0e-5
 
 
 def _speeds(v):
@@ -282,6 +291,9 @@ class PowerLawRestitution(RestitutionLaw):
 _C1 = None
 _TABLE = {}
 _KAPPA_TABLE = 25.0          # the Chebyshev table covers kappa in [0, 25], i.e. sqrt(kappa) in [0, 5]
+# The collision is integrated up to this dissipation (e = 1.1e-10 there, 26 ms); beyond it the
+# explicit integration does not reach the end of the contact within its span.
+_KAPPA_MAX = 1.0e6
 _TABLE_DEGREE = 60
 
 
@@ -312,8 +324,9 @@ def viscoelastic_restitution(kappa, rtol=1e-13):
     from scipy.integrate import solve_ivp
 
     k = float(kappa)
-    if not (math.isfinite(k) and k >= 0.0):
-        raise ValueError(f"kappa must be a finite number >= 0, got {kappa!r}")
+    if not (math.isfinite(k) and 0.0 <= k <= _KAPPA_MAX):
+        raise ValueError(f"kappa must be a finite number in [0, {_KAPPA_MAX:g}] (e < 1.1e-10 at the upper end: "
+                         f"an inelastic collision, e = 0), got {kappa!r}")
     if k == 0.0:
         return 1.0
     s0 = 1e-4
@@ -374,7 +387,7 @@ class ViscoelasticRestitution(RestitutionLaw):
     """
 
     def __init__(self, b):
-        self.b = check_positive(b, "b")
+        self.b = check_in_range(b, "b", 0.0, _KAPPA_MAX, low_closed=False)
         self.parameters = {"b": self.b}
 
     @classmethod
@@ -408,8 +421,13 @@ class ViscoelasticRestitution(RestitutionLaw):
         return viscoelastic_c1() * self.b, 0.2
 
     def kappa(self, v):
-        """:math:`\\kappa = b\\,v^{1/5}`."""
-        return self.b * np.asarray(v, dtype=float) ** 0.2
+        """:math:`\\kappa = b\\,v^{1/5}`; ``ValueError`` beyond the integrated range (kappa <= 1e6)."""
+        k = self.b * np.asarray(v, dtype=float) ** 0.2
+        if np.any(k > _KAPPA_MAX):
+            v_max = (_KAPPA_MAX / self.b) ** 5
+            raise ValueError(f"v (impact speed) must be <= {v_max:.6g} for {self!r} (kappa = b v^(1/5) <= "
+                             f"{_KAPPA_MAX:g}, where e < 1.1e-10), got {float(np.max(v))!r}")
+        return k
 
     def _e(self, v):
         return _kappa_e(self.kappa(v))
@@ -557,9 +575,11 @@ class ThicknessRestitution:
 
     def __call__(self, v, h):
         """e at impact speeds ``v`` and thicknesses ``h`` (broadcast; float for scalars)."""
-        factor = np.minimum(1.0, 2.0 / (1.0 + (np.asarray(h, dtype=float) / self.h_e) ** self.q))
-        if not np.all(np.isfinite(factor)) or np.any(np.asarray(h) <= 0):
+        hh = np.asarray(h, dtype=float)
+        if not np.all(np.isfinite(hh)) or np.any(hh <= 0):
             raise ValueError(f"h must be finite and > 0 for {self!r}, got {h!r}")
+        with np.errstate(over="ignore"):     # (h/h_e)**q overflows to inf for deep layers: e -> 0, its limit
+            factor = np.minimum(1.0, 2.0 / (1.0 + (hh / self.h_e) ** self.q))
         out = self.law(v) * factor
         return float(out) if np.ndim(out) == 0 else out
 

@@ -111,6 +111,18 @@ class Lattice:
         self.grid = grid
         n = nodes.size
         h = np.diff(nodes)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            self._build(nodes, h, grid)
+        if not (np.all(np.isfinite(self.operator)) and np.all(np.isfinite(self.volumes))
+                and np.all(self.volumes > 0.0)):
+            raise ValueError(f"nodes must be spaced so that the Laplacian ~ 1/spacing**2 is finite: the smallest "
+                             f"spacing {float(h.min())!r} (span {float(nodes[-1] - nodes[0])!r}) gives a "
+                             "non-finite or degenerate operator; use spacings above about 1e-150")
+        self.spacing = float(h.min())
+
+    def _build(self, nodes, h, grid):
+        """The cell volumes, the flux matrix and the operator of the nodes (spacings ``h``)."""
+        n = nodes.size
         if self.geometry == "planar":
             faces = np.concatenate(([nodes[0]], 0.5 * (nodes[:-1] + nodes[1:]), [nodes[-1]]))
             self.volumes = np.diff(faces)
@@ -131,7 +143,6 @@ class Lattice:
             self.autonomous[[0, -1]] = True
             L[self.autonomous] = 0.0
         self.operator = L
-        self.spacing = float(h.min())
 
     @staticmethod
     def _radial_faces(nodes, grid):

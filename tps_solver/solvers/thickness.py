@@ -48,7 +48,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from tps_solver.core.bunch import Bunch
-from tps_solver.core.checks import check_array, check_int, check_nonnegative, check_positive, check_real
+from tps_solver.core.checks import (check_array, check_int, check_nonnegative, check_positive, check_real,
+                                    check_state_scale)
+from tps_solver.core.costs import check_cost, thickness_cost
+from tps_solver.core.progress import progress_state
 from tps_solver.model.restitution import ThicknessRestitution, as_restitution
 from tps_solver.operators.lattice import Lattice
 
@@ -173,7 +176,7 @@ class ThicknessLattice:
 
 def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_start=0.0, t_end=None,
                        t_eval=None, stuck0=None, stick_velocity=1e-6, rtol=1e-10, atol=1e-12,
-                       max_events=100000):
+                       max_events=100000, callback=None):
     r"""Integrate the thickness model (module docstring) from ``t_start`` to ``t_end``.
 
     Parameters
@@ -201,11 +204,19 @@ def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_
     rtol, atol : float
         ``solve_ivp`` tolerances.
     max_events : int
-        Bound on the events; status 1 beyond it.
+        Bound on the events; status 1 beyond it.  A bound whose events alone would cost more than
+        the time limit of :func:`tps_solver.core.costs.set_limits` is refused, as is an interval
+        out of reach (:func:`tps_solver.core.costs.thickness_cost`).
+    callback : callable, optional
+        ``callback(state)`` after every event (stage ``"simulate_thickness"``, ``iteration`` the
+        events so far, ``fraction`` of the interval, ``t``).  A ``KeyboardInterrupt`` (Ctrl-C, or
+        raised by the callback) ends the run with status 5 and the state so far.
 
     Returns
     -------
     ThicknessResult
+        ``status`` 0 (reached ``t_end``), 1 (event bound), 2 (the ODE solver failed, or a non-finite
+        state), 3 (the layer thinned out), 5 (interrupted).
 
     Examples
     --------
@@ -228,6 +239,8 @@ def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_
     w = check_array(w0, "w0", shape=(n,)).astype(float).copy()
     z = check_array(zeta0, "zeta0", shape=(n,)).astype(float).copy()
     h = check_array(h0, "h0", shape=(n,)).astype(float).copy()
+    for arr, name in ((w, "w0"), (z, "zeta0"), (h, "h0")):
+        check_state_scale(arr, name)
     if np.any(z < 0.0):
         raise ValueError("zeta0 must be >= 0 at every node")
     if np.any(h <= 0.0):
@@ -246,9 +259,19 @@ def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_
     stick_velocity = check_nonnegative(stick_velocity, "stick_velocity")
     rtol, atol = check_positive(rtol, "rtol"), check_positive(atol, "atol")
     max_events = check_int(max_events, "max_events", minimum=1)
-    t_eval = np.array([], float) if t_eval is None else np.sort(np.asarray(t_eval, dtype=float))
+    t_eval = np.array([], float) if t_eval is None else np.sort(check_array(t_eval, "t_eval", ndim=1)
+                                                                .astype(float))
     if t_eval.size and (t_eval[0] < t or t_eval[-1] > t_end):
         raise ValueError("t_eval must lie in [t_start, t_end]")
+    if callback is not None and not callable(callback):
+        raise ValueError(f"callback must be callable or None, got {type(callback).__name__}")
+    n_cycles = (t_end - t) / (2.0 * math.pi)
+    nbytes, seconds, bound = thickness_cost(n, n_cycles, max_events)
+    check_cost("simulate_thickness", "t_end", t_end, nbytes, seconds,
+               hint=f"{n_cycles:.3g} forcing cycles on {n} nodes; integrate fewer periods")
+    check_cost("simulate_thickness", "max_events", max_events, nbytes, bound,
+               hint="the bound on the events is also a bound on the run time (chattering reaches it); "
+                    "lower max_events or raise stick_velocity")
     inv_G = 1.0 / Gamma
     sl = (slice(0, n), slice(n, 2 * n), slice(2 * n, 3 * n), slice(3 * n, 4 * n - 1))
 
@@ -261,115 +284,130 @@ def simulate_thickness(lattice, Gamma, e, w0, zeta0, h0, u0=None, *, chi=1.0, t_
     out_w, out_z, out_h = [], [], []
     status, message = 0, "reached t_end"
     k_eval = 0
-    while t < t_end:
-        held = stuck.copy()
+    t_first = t
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            while t < t_end:
+                held = stuck.copy()
 
-        def rhs(tt, y):
-            w_, z_, h_, u_ = y[sl[0]], y[sl[1]], y[sl[2]], y[sl[3]]
-            a = accel(tt, w_, z_, h_, u_)
-            dz = w_.copy()
-            a[held] = 0.0
-            dz[held] = 0.0
-            return np.concatenate((a, dz, op.mass_rate(h_, u_), op.stretching(u_, h_)))
+                def rhs(tt, y):
+                    w_, z_, h_, u_ = y[sl[0]], y[sl[1]], y[sl[2]], y[sl[3]]
+                    a = accel(tt, w_, z_, h_, u_)
+                    dz = w_.copy()
+                    a[held] = 0.0
+                    dz[held] = 0.0
+                    return np.concatenate((a, dz, op.mass_rate(h_, u_), op.stretching(u_, h_)))
 
-        free_idx = np.flatnonzero(~held)
-        stuck_idx = np.flatnonzero(held)
-        # one event per node: a free node's height crosses 0 downwards (a node leaving the plate
-        # starts at 0 and rises: no crossing), a stuck node's free acceleration turns positive
-        evs = []
-        for j in free_idx:
-            def land(tt, y, j=int(j)):
-                return y[n + j] + 1e-300      # a node resting at exactly 0 is not a crossing
-            land.terminal, land.direction = True, -1
-            evs.append(land)
-        for j in stuck_idx:
-            def lift(tt, y, j=int(j)):
-                a = accel(tt, y[sl[0]], y[sl[1]], y[sl[2]], y[sl[3]])
-                return a[j]
-            lift.terminal, lift.direction = True, 1
-            evs.append(lift)
-        def thin(tt, y):
-            return float(np.min(y[sl[2]])) - h_floor
-        thin.terminal, thin.direction = True, -1
-        evs.append(thin)
-        y0 = np.concatenate((w, z, h, u))
-        te = t_eval[k_eval:]
-        sol = solve_ivp(rhs, (t, t_end), y0, method="DOP853", rtol=rtol, atol=atol, events=evs or None,
-                        dense_output=True)
-        if sol.status < 0:
-            status, message = 2, f"the ODE solver failed at t = {sol.t[-1]:.12g}: {sol.message}"
-            break
-        t_new = float(sol.t[-1])
-        for tv in te[te <= t_new]:
-            yv = sol.sol(tv)
-            out_w.append(yv[sl[0]]), out_z.append(yv[sl[1]]), out_h.append(yv[sl[2]])
-            k_eval += 1
-        y = sol.y[:, -1]
-        w, z, h, u = y[sl[0]].copy(), y[sl[1]].copy(), y[sl[2]].copy(), y[sl[3]].copy()
-        t = t_new
-        if np.min(h) <= h_floor * (1.0 + 1e-9):
-            status, message = 3, (f"the thickness fell to {np.min(h):.3g} (1e-3 of the initial minimum) at node "
-                                  f"{int(np.argmin(h))}, t = {t:.12g}: the push has emptied the layer there and "
-                                  "the long-wave model breaks down")
-            break
-        if sol.status == 0:
-            break
-        # ---------------------------------------------------------------- the event
-        tol_z = 1e-10 * (1.0 + float(np.max(np.abs(z))))
-        a_now = accel(t, w, z, h, u)
-        landing = np.flatnonzero(~stuck & (z <= tol_z) & (w <= 0.0))
-        lifting = np.flatnonzero(stuck & (a_now >= -1e-10))
-        if landing.size:
-            w_minus = w[landing].copy()
-            if thick:
-                e_here = e(-w_minus, h[landing])
-            else:
-                e_here = law(-w_minus) if not law.constant else law.e
-            w_plus = -e_here * w_minus
-            dw = np.zeros(n)
-            dw[landing] = w_plus - w_minus
-            z[landing] = 0.0
-            slow = (np.abs(w_minus) <= stick_velocity) | (np.asarray(w_plus) <= 0.0)
-            w[landing] = w_plus
-            if chi > 0.0:
-                u += chi * op.push(dw, h, landing)
-            for j, s in zip(landing, np.broadcast_to(slow, landing.shape)):
-                if s:
-                    w[j] = 0.0
-            a_after = accel(t, w, z, h, u)
-            for j, s in zip(landing, np.broadcast_to(slow, landing.shape)):
-                if s and a_after[j] <= 0.0:
-                    stuck[j] = True
-                    events.append((t, int(j), "stick"))
-                else:
-                    events.append((t, int(j), "impact"))
-        for j in lifting:
-            stuck[j] = False
-            events.append((t, int(j), "liftoff"))
-        if landing.size:
-            # an impact changes its neighbours' accelerations at once: stuck nodes it pulls up lift
-            # off now (a triggered lift-off), resting free nodes it pushes down stick now
-            a_after = accel(t, w, z, h, u)
-            for j in np.flatnonzero(stuck & (a_after > 0.0)):
-                stuck[j] = False
-                events.append((t, int(j), "liftoff"))
-            for j in np.flatnonzero(~stuck & (z <= 0.0) & (w == 0.0) & (a_after <= 0.0)):
-                stuck[j] = True
-                events.append((t, int(j), "stick"))
-        if not landing.size and not lifting.size:
-            # an event that no node's state confirms (a contact at a tolerance's distance): step on
-            grazes += 1
-            z = np.maximum(z, 0.0)
-            if grazes > 100:
-                status, message = 2, f"more than 100 unconfirmed events in a row by t = {t:.12g}"
-                break
-            continue
-        grazes = 0
-        mass.append(float(op.V @ h))
-        if len(events) > max_events:
-            status, message = 1, (f"more than max_events = {max_events} events by t = {t:.12g}; raise max_events "
-                                  "or stick_velocity")
-            break
+                free_idx = np.flatnonzero(~held)
+                stuck_idx = np.flatnonzero(held)
+                # one event per node: a free node's height crosses 0 downwards (a node leaving the plate
+                # starts at 0 and rises: no crossing), a stuck node's free acceleration turns positive
+                evs = []
+                for j in free_idx:
+                    def land(tt, y, j=int(j)):
+                        return y[n + j] + 1e-300      # a node resting at exactly 0 is not a crossing
+                    land.terminal, land.direction = True, -1
+                    evs.append(land)
+                for j in stuck_idx:
+                    def lift(tt, y, j=int(j)):
+                        a = accel(tt, y[sl[0]], y[sl[1]], y[sl[2]], y[sl[3]])
+                        return a[j]
+                    lift.terminal, lift.direction = True, 1
+                    evs.append(lift)
+                def thin(tt, y):
+                    return float(np.min(y[sl[2]])) - h_floor
+                thin.terminal, thin.direction = True, -1
+                evs.append(thin)
+                y0 = np.concatenate((w, z, h, u))
+                te = t_eval[k_eval:]
+                sol = solve_ivp(rhs, (t, t_end), y0, method="DOP853", rtol=rtol, atol=atol, events=evs or None,
+                                dense_output=True)
+                if sol.status < 0:
+                    status, message = 2, f"the ODE solver failed at t = {sol.t[-1]:.12g}: {sol.message}"
+                    break
+                t_new = float(sol.t[-1])
+                for tv in te[te <= t_new]:
+                    yv = sol.sol(tv)
+                    out_w.append(yv[sl[0]]), out_z.append(yv[sl[1]]), out_h.append(yv[sl[2]])
+                    k_eval += 1
+                y = sol.y[:, -1]
+                w, z, h, u = y[sl[0]].copy(), y[sl[1]].copy(), y[sl[2]].copy(), y[sl[3]].copy()
+                t = t_new
+                if not np.all(np.isfinite(y)):
+                    status, message = 2, f"the state became non-finite by t = {t:.12g}"
+                    break
+                if np.min(h) <= h_floor * (1.0 + 1e-9):
+                    status, message = 3, (f"the thickness fell to {np.min(h):.3g} (1e-3 of the initial minimum) at node "
+                                          f"{int(np.argmin(h))}, t = {t:.12g}: the push has emptied the layer there and "
+                                          "the long-wave model breaks down")
+                    break
+                if sol.status == 0:
+                    break
+                # ---------------------------------------------------------------- the event
+                tol_z = 1e-10 * (1.0 + float(np.max(np.abs(z))))
+                a_now = accel(t, w, z, h, u)
+                landing = np.flatnonzero(~stuck & (z <= tol_z) & (w <= 0.0))
+                lifting = np.flatnonzero(stuck & (a_now >= -1e-10))
+                if landing.size:
+                    w_minus = w[landing].copy()
+                    if thick:
+                        e_here = e(-w_minus, h[landing])
+                    else:
+                        e_here = law(-w_minus) if not law.constant else law.e
+                    w_plus = -e_here * w_minus
+                    dw = np.zeros(n)
+                    dw[landing] = w_plus - w_minus
+                    z[landing] = 0.0
+                    slow = (np.abs(w_minus) <= stick_velocity) | (np.asarray(w_plus) <= 0.0)
+                    w[landing] = w_plus
+                    if chi > 0.0:
+                        u += chi * op.push(dw, h, landing)
+                    for j, s in zip(landing, np.broadcast_to(slow, landing.shape)):
+                        if s:
+                            w[j] = 0.0
+                    a_after = accel(t, w, z, h, u)
+                    for j, s in zip(landing, np.broadcast_to(slow, landing.shape)):
+                        if s and a_after[j] <= 0.0:
+                            stuck[j] = True
+                            events.append((t, int(j), "stick"))
+                        else:
+                            events.append((t, int(j), "impact"))
+                for j in lifting:
+                    stuck[j] = False
+                    events.append((t, int(j), "liftoff"))
+                if landing.size:
+                    # an impact changes its neighbours' accelerations at once: stuck nodes it pulls up lift
+                    # off now (a triggered lift-off), resting free nodes it pushes down stick now
+                    a_after = accel(t, w, z, h, u)
+                    for j in np.flatnonzero(stuck & (a_after > 0.0)):
+                        stuck[j] = False
+                        events.append((t, int(j), "liftoff"))
+                    for j in np.flatnonzero(~stuck & (z <= 0.0) & (w == 0.0) & (a_after <= 0.0)):
+                        stuck[j] = True
+                        events.append((t, int(j), "stick"))
+                if not landing.size and not lifting.size:
+                    # an event that no node's state confirms (a contact at a tolerance's distance): step on
+                    grazes += 1
+                    z = np.maximum(z, 0.0)
+                    if grazes > 100:
+                        status, message = 2, f"more than 100 unconfirmed events in a row by t = {t:.12g}"
+                        break
+                    continue
+                if not (np.all(np.isfinite(u)) and np.all(np.isfinite(w))):
+                    status, message = 2, (f"the state became non-finite at the impact at t = {t:.12g} (the "
+                                          f"lateral push chi = {chi:g} times the impact's jumps overflowed)")
+                    break
+                grazes = 0
+                mass.append(float(op.V @ h))
+                if callback is not None:
+                    callback(progress_state("simulate_thickness", len(events), t=float(t),
+                                            fraction=float(min(1.0, (t - t_first) / (t_end - t_first)))))
+                if len(events) > max_events:
+                    status, message = 1, (f"more than max_events = {max_events} events by t = {t:.12g}; raise max_events "
+                                          "or stick_velocity")
+                    break
+    except KeyboardInterrupt:
+        status, message = 5, f"interrupted at t = {t:.12g} (KeyboardInterrupt); the state so far is returned"
     k = len(out_w)
     return ThicknessResult(
         success=status == 0, status=status, message=message, t=t, w=w, zeta=z, h=h, u=u, stuck=stuck,

@@ -12,6 +12,7 @@ import numpy as np
 from tps_solver.core.checks import check_array, check_choice, check_int, check_nonnegative, check_positive, check_restitution
 from tps_solver.core.bunch import Bunch
 from tps_solver.core.progress import progress_state
+from tps_solver.core.checks import check_state_scale
 from tps_solver.core.costs import blas_threads, check_cost, simulate_cost, small_dense
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda.common import SimulationResult, check_time_window, stack_samples
@@ -144,6 +145,8 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
     n = lattice.n_nodes
     w = check_array(w0, "w0", shape=(n,))
     zeta = check_array(zeta0, "zeta0", shape=(n,))
+    check_state_scale(w, "w0")
+    check_state_scale(zeta, "zeta0")
     t_start, t_end, t_eval = check_time_window(t_start, t_end, t_eval)
     if callback is not None and not callable(callback):
         raise ValueError(f"callback must be callable or None, got {type(callback).__name__}")
@@ -186,8 +189,10 @@ def simulate(lattice, Gamma, e, w0, zeta0, t_start=0.0, t_end=None, method="exac
                 f"below the time resolution 1e3 eps max|t| = {resolution:.3g} of this run (the contacts "
                 f"could not be resolved); use cutoff > {math.sqrt(resolution):.3g}")
     n_cycles = (t_end - t_start) / (2.0 * math.pi)
-    check_cost("simulate", "t_end", t_end, *simulate_cost(n, n_cycles, 0 if t_eval is None else len(t_eval)),
-               hint=f"{n_cycles:.3g} forcing cycles on {n} nodes; simulate fewer periods")
+    check_cost("simulate", "t_end", t_end, *simulate_cost(n, n_cycles, 0 if t_eval is None else len(t_eval),
+                                                          method=method, record_segments=bool(record_segments)),
+               hint=f"{n_cycles:.3g} forcing cycles on {n} nodes with method={method!r}"
+                    + (" and record_segments=True" if record_segments else "") + "; simulate fewer periods")
     with blas_threads(1, enabled=small_dense(n)):
         return _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, method, options,
                           cutoff, rule, stick_velocity, max_events_per_cycle, callback,

@@ -25,6 +25,7 @@ Derivatives
 import numpy as np
 from scipy.sparse.linalg import LinearOperator
 
+from tps_solver.core.checks import check_array
 from tps_solver.core.problem import Problem
 from tps_solver.model.restitution import RestitutionLaw
 from tps_solver.solvers.shooting.soft_monodromy import SoftMonodromy
@@ -105,7 +106,8 @@ class PeriodMap(Problem):
         n = lattice.n_nodes
         self.lattice, self.Gamma, self.T, self.t_s = lattice, float(Gamma), float(period), float(t_start)
         self.e = e if isinstance(e, RestitutionLaw) else float(e)
-        self.stuck = np.zeros(n, bool) if stuck is None else np.asarray(stuck, dtype=bool).copy()
+        self.stuck = np.zeros(n, bool) if stuck is None else check_array(stuck, "stuck", shape=(n,),
+                                                                          dtype=bool).copy()
         self.free = ~self.stuck
         self.m = int(np.count_nonzero(self.free))
         self.method = method

@@ -72,7 +72,7 @@ import numpy as np
 from tps_solver.core import archive
 from tps_solver.core.orbit import STATUS, PeriodicOrbit
 from tps_solver.core.checks import check_array, check_bool, check_choice, check_int, check_positive, check_real, check_restitution
-from tps_solver.core.costs import check_cost
+from tps_solver.core.costs import check_cost, period_map_seconds, shooting_maps
 from tps_solver.model.restitution import as_restitution
 from tps_solver.core.newton import newton
 from tps_solver.core.progress import progress_state
@@ -574,6 +574,13 @@ def find_periodic_orbit(lattice, Gamma=2.5, M=2, e=0.45, cutoff=None, guess=None
     if callback is not None and not callable(callback):
         raise ValueError(f"callback must be callable, got {type(callback).__name__}")
     T = 2.0 * math.pi * M
+    # a priori (before any period map): one Newton step, and the dense multipliers' Jacobian
+    krylov_dim = None if krylov_dim is None else check_int(krylov_dim, "krylov_dim", minimum=1)
+    maps = shooting_maps(n, krylov_dim, max_iter) + (2 * n + 1 if multipliers and 2 * n <= dense_max else 0)
+    check_cost("find_periodic_orbit", "lattice.n_nodes", n, 8.0 * (maps + 4 * n) * 2 * n + 1e6,
+               maps * period_map_seconds(n, T, method, e if law.constant else None),
+               hint=f"at least {maps} period maps of separate contacts at O(n_nodes**2) each; use a coarser "
+                    "lattice, a smaller krylov_dim or dense_max, or the soft contact")
     kw = dict(simulate_kw)
     if method == "soft":
         kw["cutoff"] = cutoff

@@ -96,7 +96,7 @@ from tps_solver.core.orbit import PeriodicOrbit
 from tps_solver.core.pattern import ContactPattern
 from tps_solver.core.checks import check_int, check_positive, check_real, check_restitution
 from tps_solver.model.restitution import RestitutionLaw
-from tps_solver.core.costs import check_cost
+from tps_solver.core.costs import check_cost, period_map_seconds, shooting_maps
 from tps_solver.core.newton import newton
 from tps_solver.solvers.shooting.periodic import ShootingOrbit, find_periodic_orbit
 from tps_solver.solvers.tps.stick_pattern import (StickPattern, check_pattern, check_with_fda, kink_state,
@@ -468,6 +468,13 @@ def solve_stick_flat(Gamma=4.1, M=2, e=0.0, n_harmonics=32, *, n_nodes=1, length
     sol.exact = orb
     w, z = orb.orbit.velocity, orb.orbit.height
     sol._flat_state = (w, z)
+    if orb.own_M < M and sol.converged:
+        # the orbit of period 2 pi M asked for does not exist: a shorter one repeated is not it
+        sol.converged = sol.success = False
+        sol.status = 9
+        sol.message = (f"no e = 0 flat orbit of period 2 pi M = 2 pi {M} at Gamma = {Gamma:g}: the orbit solved is "
+                       f"that of period 2 pi {orb.own_M} (M = {orb.own_M}) repeated {M // orb.own_M} times; pass "
+                       f"M = {orb.own_M} for it; converged=False. " + sol.message)
     return sol
 
 
@@ -549,6 +556,13 @@ def solve_stick_lattice(lattice, Gamma=4.1, M=2, e=0.0, pattern=None, *, w0=None
     run = orbit = None
     if pattern is None:
         periods = check_int(periods, "periods", minimum=2)
+        n = lattice.n_nodes
+        maps = shooting_maps(n) if shoot else 0
+        check_cost("solve_stick_lattice", "lattice.n_nodes", n, 1e6 + 16.0 * (4 * n) ** 2,
+                   (periods + maps) * period_map_seconds(n, T, "exact", e),
+                   hint=f"{periods} settling periods" + (f" and one shooting Newton step of {maps} period maps"
+                                                          if shoot else "")
+                        + ", O(n_nodes**2) each; use a coarser lattice")
         if (w0 is None) != (zeta0 is None):
             raise ValueError(f"w0 and zeta0 must be given together (got only {'w0' if zeta0 is None else 'zeta0'}); "
                              "give both, or neither for the default kink start")

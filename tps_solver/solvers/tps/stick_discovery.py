@@ -437,7 +437,13 @@ def discover_stick_kink(lattice, Gamma=4.1, M=2, *, front=None, coupling_start=0
             near = [q for q in _near_triggers(pat_ok, A, _TRIGGER_WINDOW) if q[1:] not in tried]
             if near:
                 tried.update(q[1:] for q in near)
-                pattern = _triggered(pat_ok, near)
+                try:
+                    pattern = _triggered(pat_ok, near)
+                except ValueError as exc:     # no admissible pattern to go on with: the path ends here
+                    info.changes.append((nu_ok, f"triggered lift-offs near nodes "
+                                                f"{sorted({int(pat_ok.node[c]) for _, c, _, _ in near})} "
+                                                f"give no admissible pattern ({exc})"))
+                    break
                 info.changes += [(nu_ok, f"node {int(pat_ok.node[c])}: lift-off triggered by node "
                                          f"{int(pat_ok.node[k])}'s landing ({d:.1e} away)")
                                  for d, c, k, m in near]

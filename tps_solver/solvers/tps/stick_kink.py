@@ -36,6 +36,7 @@ from tps_solver.core.bunch import Bunch
 from tps_solver.core.checks import check_int, check_positive
 from tps_solver.core.orbit import far_field
 from tps_solver.core.progress import ProgressState, progress_state
+from tps_solver.core.costs import DISCOVERY_SECONDS_PER_NODE3, check_cost, period_map_seconds, shooting_maps
 from tps_solver.model.flat import FlatLayer
 from tps_solver.operators.lattice import Lattice
 from tps_solver.solvers.fda import kink_state, oscillon_state, simulate
@@ -144,6 +145,7 @@ def solve_stick_kink(Gamma=4.1, M=2, *, lattice=None, periods=10, max_iter=80, f
         raise ValueError("lattice must be a planar tps.Lattice with Neumann ends, e.g. "
                          "tps.Lattice.planar(n_nodes=41, length=40.0)")
     flat = _far_field(Gamma, M)
+    _check_reach("solve_kink", lattice, flat, periods, fda_periods, start)
     if start == "anticontinuum":
         return _discovered(lattice, flat, max_iter, fda_periods, n_basis, tol, callback)
     if start != "shooting":
@@ -206,10 +208,28 @@ def solve_stick_oscillon(Gamma=4.1, M=2, *, lattice=None, core_radius=10.0, peri
     if core_radius >= r_max:
         raise ValueError(f"core_radius must lie inside the lattice, 0 < core_radius < {r_max:g}, got {core_radius!r}")
     flat = _far_field(Gamma, M)
+    _check_reach("solve_oscillon", lattice, flat, periods, fda_periods, "shooting")
     t_start = float(flat.t0 + 0.25 * flat.period)
     w0, z0 = oscillon_state(lattice, flat, t_start, r_core=core_radius, width=2.0)
     return _pipeline(lattice, flat, w0, z0, t_start, "oscillon", periods, max_iter, fda_periods, n_basis,
                      tol, callback)
+
+
+def _check_reach(what, lattice, flat, periods, fda_periods, start):
+    """Refuse, before any work, a lattice out of reach: by shooting, the settling and checking
+    periods and one Newton step of period maps (separate contacts, O(n**2) each); from the
+    anticontinuum limit, the discovery's measured O(n**3) pace."""
+    n = lattice.n_nodes
+    if start == "anticontinuum":
+        seconds = DISCOVERY_SECONDS_PER_NODE3 * float(n) ** 3
+        hint = "the TPS's discovery from the anticontinuum limit grows as n_nodes**3 at least"
+    else:
+        maps = shooting_maps(n)
+        seconds = (periods + fda_periods + maps) * period_map_seconds(n, flat.period, "exact", 0.0)
+        hint = (f"{periods} settling and {fda_periods} checking periods and one Newton step of {maps} period "
+                "maps, O(n_nodes**2) each")
+    check_cost(what, "lattice.n_nodes", n, 1e6 + 16.0 * (4 * n) ** 2, seconds,
+               hint=hint + "; use a coarser lattice")
 
 
 def _check_common(Gamma, M, periods, fda_periods, max_iter):

@@ -63,7 +63,8 @@ def flat_stick_orbit(Gamma, M=2):
         (K,)), ``w_minus`` (pre-impact velocities, shape (K,)), ``tau`` (lift-off
         after each contact, nan for a bounce), ``period``, ``Gamma``, ``M`` and ``orbit``
         (the :class:`~tps_solver.model.sticking.ContactOrbit`; its ``velocity(t)`` and
-        ``height(t)``, zeta = 0 at the contacts, are the orbit's w and zeta).
+        ``height(t)``, zeta = 0 at the contacts, are the orbit's w and zeta), ``own_M`` (int: the
+        orbit's own period is ``2 pi own_M``; ``own_M < M`` when it is repeated).
 
     Raises
     ------
@@ -102,7 +103,7 @@ def flat_stick_orbit(Gamma, M=2):
             wm.append(w_minus)
             taus.append(lift + shift)
     return Bunch(t_liftoff=orbit.t0, t=np.array(ts), kind=np.array(kinds), w_minus=np.array(wm),
-                 tau=np.array(taus), period=T, Gamma=Gamma, M=M, orbit=orbit)
+                 tau=np.array(taus), period=T, Gamma=Gamma, M=M, orbit=orbit, own_M=k)
 
 
 # ------------------------------------------------------------------ patterns
