@@ -20,7 +20,7 @@ Examples
 import importlib.util
 import os
 
-__all__ = ["available", "enabled", "kernel", "reference"]
+__all__ = ["available", "compiled_option", "enabled", "kernel", "reference"]
 
 
 def available():
@@ -90,3 +90,38 @@ def reference(func):
     True
     """
     return getattr(func, "py_func", func)
+
+
+def compiled_option(compiled, default=True):
+    """The ``compiled`` option of an integrator, checked: whether its compiled kernels run.
+
+    Parameters
+    ----------
+    compiled : bool or None
+        ``True`` (compiled, refused without numba), ``False`` (the numpy reference path) or
+        ``None`` (compiled where numba is enabled and ``default`` holds).
+    default : bool
+        The integrator's own choice for ``None`` (for example: the lattice is large enough).
+
+    Returns
+    -------
+    bool
+
+    Raises
+    ------
+    ValueError
+        If ``compiled`` is not True, False or None, or True without numba.
+
+    Examples
+    --------
+    >>> compiled_option(False)
+    False
+    >>> compiled_option(None) == enabled()
+    True
+    """
+    if compiled not in (None, True, False):
+        raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
+    if compiled and not enabled():
+        raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
+                         "not set to 0; use compiled=None or False")
+    return bool(enabled() and default) if compiled is None else bool(compiled)

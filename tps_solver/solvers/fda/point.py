@@ -466,13 +466,7 @@ class PointIntegrator(Integrator):
             raise ValueError(f"max_steps must be an integer >= 1, got {self.max_steps!r}")
         if self._cache_size < 1:
             raise ValueError(f"cache_size must be an integer >= 1, got {self._cache_size!r}")
-        compiled = self.options["compiled"]
-        if compiled not in (None, True, False):
-            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
-        if compiled and not jit.enabled():
-            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
-                             "not set to 0; use compiled=None or False")
-        self.compiled = jit.enabled() if compiled is None else bool(compiled)
+        self.compiled = jit.compiled_option(self.options["compiled"])
         self._kernels = None
         if self.compiled:
             from tps_solver.solvers.fda import point_kernels

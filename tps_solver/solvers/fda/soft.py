@@ -223,13 +223,7 @@ class SoftIntegrator(Integrator):
         self.max_step = (self.tau_c if opt["max_step"] is None
                          else check_positive(opt["max_step"], "max_step"))
         self.max_events = check_int(opt["max_events"], "max_events", minimum=1)
-        compiled = opt["compiled"]
-        if compiled not in (None, True, False):
-            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
-        if compiled and not jit.enabled():
-            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
-                             "not set to 0; use compiled=None or False")
-        self.compiled = jit.enabled() if compiled is None else bool(compiled)
+        self.compiled = jit.compiled_option(opt["compiled"])
         self.n_rejected = 0
 
         L = np.asarray(lattice.operator, float)
