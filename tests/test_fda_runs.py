@@ -267,3 +267,55 @@ def test_axisymmetric_sticking_same_events():
     a, b = _both(lat, 4.1, 0.0, w, z, t0, t0 + 2 * fl.period)
     assert np.count_nonzero(b.events.kind == "liftoff") >= 12
     _same_events(a, b, 1e-11)
+
+
+@needs_numba
+def test_compiled_bounds_equal_numpy():
+    from tps_solver.solvers.fda.run_kernels import closed_bounds12
+    lat = tps.Lattice.planar(n_nodes=40, length=20.0)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(3)
+    free = rng.random(40) < 0.8
+    md = RunModes(lat, free, cache.run, cache.tri)
+    assert md.closed and len(md.runs) > 2
+    F = md.index
+    seg = Segment(md, 1.0, rng.standard_normal(F.size), rng.random(F.size), 4.1)   # numpy: no kernel
+    for tau in (0.0, 1e-6, 0.7):
+        ref = seg.bounds12(tau)
+        md.kernel, md.bounds_kernel = object(), closed_bounds12          # the compiled branch
+        try:
+            new = seg.bounds12(tau)
+        finally:
+            md.kernel = md.bounds_kernel = None
+        for a, b in zip(ref, new):
+            np.testing.assert_allclose(b, a, rtol=64 * EPS, atol=0)
+
+
+@needs_numba
+def test_compiled_event_sets_equal_numpy():
+    # rest-on-the-plate contacts, lift-offs within time_tol, beyond eps_a, and none: against event_sets
+    from tps_solver.solvers.fda.events import event_sets
+    from tps_solver.solvers.fda.run_kernels import tri_event_sets
+    lat = tps.Lattice.planar(n_nodes=30, length=15.0)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(17)
+    n_contact = n_lift = 0
+    for trial in range(40):
+        free = rng.random(30) < 0.7
+        md = RunModes(lat, free, cache.run, cache.tri)
+        F, S = md.index, md.stuck
+        nf = F.size
+        wF = rng.standard_normal(nf) * (rng.random(nf) < 0.7)
+        zF = rng.random(nf) * (rng.random(nf) < 0.5)
+        t = rng.uniform(0, 2 * np.pi)
+        eps_z = np.full(nf, 1e-14)
+        ref = event_sets(t, wF, zF, F, S, md.L_FF, md.L_SF, 4.1, 1e-12, eps_z,
+                         64 * EPS * (1.0 + abs(np.sin(t) - 1 / 4.1) + md.absL_SF @ np.abs(wF)), absL_FF=md.absL_FF)
+        tri = md.L_FF.tri
+        c, l = np.empty(nf, dtype=np.int64), np.empty(S.size, dtype=np.int64)
+        nc, nl = tri_event_sets(np.sin(t) - 1 / 4.1, np.cos(t), wF, zF, F, S, tri.lower, tri.diag, tri.upper,
+                                1e-12, eps_z, c, l)
+        assert c[:nc].tolist() == ref[0].tolist() and l[:nl].tolist() == ref[1].tolist()
+        n_contact += nc
+        n_lift += nl
+    assert n_contact > 20 and n_lift > 20

@@ -320,6 +320,12 @@ class Segment:
 
     def bounds12(self, tau):
         """``(D_1, D_2)`` in one matrix product (see :meth:`derivative_bound`)."""
+        md = self.modes
+        if self._runs and md.closed and md.kernel is not None:
+            A, B = np.empty(md.lam.size), np.empty(md.lam.size)
+            md.bounds_kernel(md.abs_lam, self._abs_a, float(tau), md.offsets, self._forcing[1], self._forcing[2],
+                             A, B)
+            return A, B
         lam = self.modes.abs_lam
         decay = np.exp(-lam * tau) * self._abs_a
         D = self.modes.absV @ np.column_stack((lam * decay, lam * lam * decay))
@@ -442,7 +448,8 @@ class ExactPropagator(Integrator):
         # 2 s, is more than the kernels save on smaller lattices in most runs)
         self.compiled = (jit.enabled() and lattice.n_nodes >= COMPILED_MIN_NODES) if compiled is None \
             else bool(compiled)
-        self._kernel = self._step_kernel = None        # imported on first use (inside the driver's loop)
+        # imported on first use (inside the driver's loop)
+        self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = None
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -457,10 +464,12 @@ class ExactPropagator(Integrator):
         key = np.packbits(free).tobytes()
         if self._runs is not None:          # kept per lattice, across propagators (period maps)
             if self.compiled and self._kernel is None:
-                from tps_solver.solvers.fda.run_kernels import run_coefficients, step_candidates
-                self._kernel, self._step_kernel = run_coefficients, step_candidates
+                from tps_solver.solvers.fda import run_kernels as rk
+                self._kernel, self._step_kernel = rk.run_coefficients, rk.step_candidates
+                self._bounds_kernel, self._sets_kernel = rk.closed_bounds12, rk.tri_event_sets
             m = self._runs.modes(free, key)
             m.kernel, m.step_kernel = self._kernel, self._step_kernel
+            m.bounds_kernel, m.sets_kernel = self._bounds_kernel, self._sets_kernel
             return m
         m = self._cache.get(key)
         if m is None:
@@ -748,6 +757,16 @@ class ExactPropagator(Integrator):
         t_c = t0 + tau_c
         g = math.sin(t_c) - 1.0 / self.Gamma
         eps_z = 64 * _EPS * (1.0 + np.abs(seg.zeta0) + md.absV @ np.abs(seg.a) * max(1.0, tau_c))
+        sets = getattr(md, "sets_kernel", None)
+        if sets is not None:
+            tri = md.L_SF.tri
+            contact, liftoff = np.empty(F.size, dtype=np.int64), np.empty(S.size, dtype=np.int64)
+            nc, nl = sets(g, math.cos(t_c), wF, zF, F, S, tri.lower, tri.diag, tri.upper, self.time_tol, eps_z,
+                          contact, liftoff)
+            contact, liftoff = contact[:nc], liftoff[:nl]
+            contact = contact[self._guard[contact] <= t_c]
+            w, z = self._full(F, n, wF, zF)
+            return t_c, w, z, contact, liftoff, samples
         eps_a = 64 * _EPS * (1.0 + abs(g) + md.absL_SF @ np.abs(wF))
         contact, liftoff = event_sets(t_c, wF, zF, F, S, md.L_FF, md.L_SF, self.Gamma,
                                       self.time_tol, eps_z, eps_a, absL_FF=md.absL_FF)

@@ -167,3 +167,145 @@ def step_candidates(zF, wF, A, B, rel, eps_w, g, dg, F, S, lower, diag, upper, f
         fp[r] = -(dg + da)
         Ab[r] = 1.0 + c
         h[r] = _safe(f[r], fp[r], Ab[r])
+
+
+@kernel
+def closed_bounds12(abs_lam, abs_a, tau, offsets, f1, f2, A, B):
+    r"""The bounds :math:`D_1, D_2` of :meth:`~tps_solver.solvers.fda.exact.Segment.bounds12` (in place),
+    every run closed-form (:math:`|V_{jk}| \le 1`: one sum per run).
+
+    Parameters
+    ----------
+    abs_lam, abs_a : ndarray of float, shape (nf,)
+        :math:`|\lambda_k|` and :math:`|a_k|`, runs concatenated.
+    tau : float
+    offsets : ndarray of int64, shape (n_runs + 1,)
+        Run boundaries in the concatenated vectors.
+    f1, f2 : ndarray of float, shape (nf,)
+        Forcing parts of :math:`D_1, D_2`.
+    A, B : ndarray of float, shape (nf,)
+        Output.
+
+    Examples
+    --------
+    One run of two modes:
+
+    >>> A, B = np.empty(2), np.empty(2)
+    >>> closed_bounds12(np.array([0.0, 2.0]), np.array([1.0, 1.0]), 0.0, np.array([0, 2]), np.zeros(2),
+    ...                 np.ones(2), A, B)
+    >>> A.tolist(), B.tolist()
+    ([2.0, 2.0], [5.0, 5.0])
+    """
+    for r in range(offsets.size - 1):
+        s1 = 0.0
+        s2 = 0.0
+        for k in range(offsets[r], offsets[r + 1]):
+            lam = abs_lam[k]
+            decay = math.exp(-lam * tau) * abs_a[k]
+            x = lam * decay
+            s1 += x
+            s2 += lam * x
+        for k in range(offsets[r], offsets[r + 1]):
+            A[k] = s1 + f1[k]
+            B[k] = s2 + f2[k]
+
+
+@kernel
+def tri_event_sets(g, dg, wF, zF, F, S, lower, diag, upper, time_tol, eps_z, contact, liftoff):
+    r""":func:`~tps_solver.solvers.fda.events.event_sets` on a tridiagonal operator, in one pass.
+
+    ``eps_z`` is the height round-off of each free node; the acceleration round-off of a stuck
+    node is :math:`64\epsilon(1 + |g| + (|\underline L_{SF}||w_F|)_i)` (as in
+    :meth:`~tps_solver.solvers.fda.exact.ExactPropagator.advance`).  Writes the contact nodes to
+    ``contact`` and the lift-off nodes to ``liftoff`` and returns their numbers.
+
+    Parameters
+    ----------
+    g, dg : float
+        :math:`g(t)`, :math:`\dot g(t)`.
+    wF, zF, eps_z : ndarray of float, shape (nf,)
+    F, S : ndarray of int64
+        Free and stuck nodes.
+    lower, diag, upper : ndarray of float, shape (n,)
+    time_tol : float
+    contact, liftoff : ndarray of int64, shape (nf,), (ns,)
+        Output.
+
+    Returns
+    -------
+    n_contact, n_liftoff : int
+
+    Examples
+    --------
+    The example of :func:`~tps_solver.solvers.fda.events.event_sets` (node 0 lands, node 2 lifts off):
+
+    >>> F, S = np.array([0, 1]), np.array([2])
+    >>> c, l = np.empty(2, dtype=np.int64), np.empty(1, dtype=np.int64)
+    >>> tri_event_sets(0.6, 0.0, np.array([-1.0, 0.5]), np.array([0.0, 1.0]), F, S, np.array([0.0, 1.0, 2.0]),
+    ...                np.array([-2.0, -2.0, -2.0]), np.array([2.0, 1.0, 0.0]), 1e-12, np.full(2, 1e-14), c, l)
+    (1, 1)
+    >>> int(c[0]), int(l[0])
+    (0, 2)
+    """
+    eps64 = 64.0 * 2.220446049250313e-16
+    n = lower.size
+    nf = F.size
+    u = np.zeros(n)
+    wmax = 0.0
+    for j in range(nf):
+        u[F[j]] = wF[j]
+        if abs(wF[j]) > wmax:
+            wmax = abs(wF[j])
+    eps_w = eps64 * (1.0 + wmax)
+    acc = np.zeros(n)
+    for j in range(nf):
+        i = F[j]
+        a = diag[i] * u[i]
+        if i > 0:
+            a += lower[i] * u[i - 1]
+        if i < n - 1:
+            a += upper[i] * u[i + 1]
+        acc[i] = a + g
+    nc = 0
+    for j in range(nf):
+        w = wF[j]
+        lim = w * -time_tol
+        if eps_z[j] > lim:
+            lim = eps_z[j]
+        if zF[j] <= lim:
+            hit = w < -eps_w
+            if not hit and abs(w) <= eps_w:
+                i = F[j]
+                ea = abs(diag[i]) * abs(u[i])
+                if i > 0:
+                    ea += abs(lower[i]) * abs(u[i - 1])
+                if i < n - 1:
+                    ea += abs(upper[i]) * abs(u[i + 1])
+                hit = acc[i] < -eps64 * (1.0 + abs(g) + ea)
+            if hit:
+                contact[nc] = F[j]
+                nc += 1
+    nl = 0
+    for k in range(S.size):
+        i = S[k]
+        a = diag[i] * u[i]
+        da = 0.0
+        ea = 0.0
+        if i > 0:
+            a += lower[i] * u[i - 1]
+            da += lower[i] * acc[i - 1]
+            ea += abs(lower[i]) * abs(u[i - 1])
+        if i < n - 1:
+            a += upper[i] * u[i + 1]
+            da += upper[i] * acc[i + 1]
+            ea += abs(upper[i]) * abs(u[i + 1])
+        accS = g + a
+        daccS = dg + da
+        eps_a = eps64 * (1.0 + abs(g) + ea)
+        near = time_tol * daccS if daccS > 0.0 else 0.0
+        if eps_a > near:
+            near = eps_a
+        if accS > eps_a or (accS >= -near and daccS > 0.0):
+            liftoff[nl] = i
+            nl += 1
+    return nc, nl

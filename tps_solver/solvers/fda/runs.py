@@ -377,7 +377,7 @@ class RunModes:
         starts, stops = free_runs(free)
         self.runs = [run_of(int(a), int(b)) for a, b in zip(starts, stops)]
         lengths = stops - starts
-        self.offsets = np.concatenate(([0], np.cumsum(lengths)))
+        self.offsets = np.concatenate(([0], np.cumsum(lengths))).astype(np.int64)
         self.starts, self.stops = starts, stops
         idx = np.flatnonzero(free)
         self.index = idx
@@ -391,7 +391,10 @@ class RunModes:
             self.lam, self.s = np.empty(0), np.empty(0)
         self.abs_lam = np.abs(self.lam)
         self.forced = np.flatnonzero(self.s)
-        self.kernel = None          # compiled coefficients (set by the propagator), or None: numpy
+        # compiled kernels (set by the propagator), or None: numpy
+        self.kernel = self.step_kernel = self.bounds_kernel = self.sets_kernel = None
+        #: every run closed-form (the compiled bounds sum each run's modes)
+        self.closed = all(isinstance(r, ClosedRun) for r in self.runs)
         self.V = _RunOp(self.runs, self.offsets, "synthesis")
         self.Vinv = _RunOp(self.runs, self.offsets, "analysis")
         self.absV = _RunOp(self.runs, self.offsets, "abs_bound")
