@@ -449,7 +449,7 @@ class ExactPropagator(Integrator):
         self.compiled = (jit.enabled() and lattice.n_nodes >= COMPILED_MIN_NODES) if compiled is None \
             else bool(compiled)
         # imported on first use (inside the driver's loop)
-        self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = None
+        self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = self._bracket_kernel = None
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -467,9 +467,11 @@ class ExactPropagator(Integrator):
                 from tps_solver.solvers.fda import run_kernels as rk
                 self._kernel, self._step_kernel = rk.run_coefficients, rk.step_candidates
                 self._bounds_kernel, self._sets_kernel = rk.closed_bounds12, rk.tri_event_sets
+                self._bracket_kernel = rk.closed_bracket
             m = self._runs.modes(free, key)
             m.kernel, m.step_kernel = self._kernel, self._step_kernel
             m.bounds_kernel, m.sets_kernel = self._bounds_kernel, self._sets_kernel
+            m.bracket_kernel = self._bracket_kernel if m.closed else None
             return m
         m = self._cache.get(key)
         if m is None:
@@ -629,6 +631,14 @@ class ExactPropagator(Integrator):
 
     def _bracket(self, seg, md, f, fp, A, h, tau, nf):
         """Monotone brackets for the leading candidates; None if not all certified."""
+        kern = getattr(md, "bracket_kernel", None)
+        if kern is not None:
+            tri = md.L_SF.tri
+            segv = (md.lam, seg._a_ri, seg._rr, seg._ri, seg._sg, seg.zeta0)
+            tau_c, group = kern(f, fp, A, h, float(tau), self.time_tol, segv, md.theta, md.end_code, md.offsets,
+                                md.row_of, md.stuck, tri.lower, tri.diag, tri.upper, float(seg.t_c),
+                                float(self.Gamma), nf)
+            return None if tau_c < 0.0 else (tau_c, group)
         fpos = np.maximum(f, 0.0)
         disc = fp * fp - 2.0 * A * fpos
         ok = (fp < 0.0) & (fp * fp >= 2.5 * A * fpos)

@@ -309,3 +309,197 @@ def tri_event_sets(g, dg, wF, zF, F, S, lower, diag, upper, time_tol, eps_z, con
             liftoff[nl] = i
             nl += 1
     return nc, nl
+
+
+@kernel
+def _row_dot(theta, code, m, j, o, cw, cz):
+    """``(row . cz, row . cw)`` for local node ``j`` of a closed run (modes ``o .. o + m - 1``)."""
+    vz = 0.0
+    vw = 0.0
+    for k in range(m):
+        if code == 0:
+            r = math.sin(theta[o + k] * (j + 1))
+        elif code == 2:
+            r = math.cos(theta[o + k] * (m - 1 - j))
+        else:
+            r = math.cos(theta[o + k] * j)
+        vz += r * cz[k]
+        vw += r * cw[k]
+    return vz, vw
+
+
+@kernel
+def _free_value(seg, theta, code, offsets, j, tau):
+    """``(zeta_j, w_j)`` of free row ``j`` at local time ``tau`` (see :func:`closed_bracket`)."""
+    lam, a_ri, rr, ri, sg, zeta0 = seg
+    r = np.searchsorted(offsets, j, side="right") - 1
+    o = offsets[r]
+    m = offsets[r + 1] - o
+    cw = np.empty(m)
+    cz = np.empty(m)
+    run_coefficients(lam[o:o + m], a_ri[o:o + m], rr[o:o + m], ri[o:o + m], sg[o:o + m], tau, cw, cz)
+    vz, vw = _row_dot(theta, code[r], m, j - o, o, cw, cz)
+    return zeta0[j] + vz, vw
+
+
+@kernel
+def _value_slope(seg, theta, code, offsets, row_of, S, lower, diag, upper, t_c, Gamma, nf, j, tau):
+    """``(f_j, f_j')``: height and velocity of a free row, minus the free acceleration and its rate of a stuck row."""
+    if j < nf:
+        return _free_value(seg, theta, code, offsets, j, tau)
+    t = t_c + tau
+    g = math.sin(t) - 1.0 / Gamma
+    n = lower.size
+    node = S[j - nf]
+    lo = max(node - 2, 0)
+    hi = min(node + 3, n)
+    w = np.zeros(5)
+    isfree = np.zeros(5, dtype=np.bool_)
+    for k in range(lo, hi):
+        if row_of[k] >= 0:
+            w[k - lo] = _free_value(seg, theta, code, offsets, row_of[k], tau)[1]
+            isfree[k - lo] = True
+    f = g
+    fp = math.cos(t)
+    for side in range(2):
+        k = node - 1 + 2 * side
+        c = lower[node] if side == 0 else upper[node]
+        if k < lo or k >= hi or not isfree[k - lo]:
+            continue
+        f += c * w[k - lo]
+        acc = g + diag[k] * w[k - lo]
+        if k - 1 >= lo and isfree[k - 1 - lo]:
+            acc += lower[k] * w[k - 1 - lo]
+        if k + 1 < hi and isfree[k + 1 - lo]:
+            acc += upper[k] * w[k + 1 - lo]
+        fp += c * acc
+    return -f, -fp
+
+
+@kernel
+def _newton_root(seg, theta, code, offsets, row_of, S, lower, diag, upper, t_c, Gamma, nf, j, lo, hi,
+                 f_lo, fp_lo, A):
+    """:meth:`~tps_solver.solvers.fda.exact.ExactPropagator.advance`'s Newton polish in its bracket."""
+    eps = 2.220446049250313e-16
+    if f_lo <= 0.0:
+        return lo
+    x, f, fp = lo, f_lo, fp_lo
+    for _ in range(200):
+        if fp < 0.0:
+            step = f / fp
+            x_new = x - step
+            if lo < x_new < hi and A * step * step <= -1e-16 * fp:
+                return x_new
+        else:
+            x_new = 0.5 * (lo + hi)
+        if not lo < x_new < hi:
+            x_new = 0.5 * (lo + hi)
+        if abs(x_new - x) <= 1e-15 + 4 * eps * abs(x_new) or hi - lo <= 1e-15 + 4 * eps * abs(hi):
+            return x_new
+        x = x_new
+        f, fp = _value_slope(seg, theta, code, offsets, row_of, S, lower, diag, upper, t_c, Gamma, nf, j, x)
+        if f == 0.0:
+            return x
+        if f > 0.0:
+            lo = x
+        else:
+            hi = x
+    return x
+
+
+@kernel
+def closed_bracket(f, fp, A, h, tau, time_tol, seg, theta, code, offsets, row_of, S, lower, diag, upper,
+                   t_c, Gamma, nf):
+    r"""The certified bracket, the root polish and the order repair of the search, every run closed-form.
+
+    The compiled form of ``_bracket`` of :class:`~tps_solver.solvers.fda.exact.ExactPropagator`
+    with run modes: the monotone brackets :math:`u = 2f/(|f'| + \sqrt{f'^2 - 2Af})` of the
+    candidates with :math:`f'^2 \ge 2.5Af`, the closed candidate group
+    (:func:`~tps_solver.solvers.fda.exact.candidate_group`), Newton's method from the earliest
+    estimate and the repair of the order; candidate values from the closed-form rows
+    (:meth:`~tps_solver.solvers.fda.runs.ClosedRun.row`) and the modal coefficients of
+    :func:`run_coefficients`.
+
+    Parameters
+    ----------
+    f, fp, A, h : ndarray of float, shape (nf + ns,)
+        Candidates, slopes, bounds and safe steps of the search step (:func:`step_candidates`).
+    tau, time_tol : float
+        Local time of the step; simultaneity window.
+    seg : tuple of ndarray of float, shape (nf,)
+        ``(lam, a - r_i, r_r, r_i, s/Gamma, zeta0)`` of the segment (:func:`run_coefficients`).
+    theta : ndarray of float, shape (nf,)
+        Mode angles of the runs, concatenated.
+    code : ndarray of int64, shape (n_runs,)
+        End types (0 DD, 1 ND, 2 DN, 3 NN).
+    offsets : ndarray of int64, shape (n_runs + 1,)
+    row_of : ndarray of int64, shape (n,)
+        Free row of each node, -1 for a stuck node.
+    S : ndarray of int64, shape (ns,)
+    lower, diag, upper : ndarray of float, shape (n,)
+    t_c, Gamma : float
+        Segment start and plate acceleration.
+    nf : int
+
+    Returns
+    -------
+    tau_c : float
+        The event's local time, or -1.0 if a member of the group has no certified bracket
+        (the caller then takes a smaller step).
+    group : ndarray of int64
+        The candidate group.
+    """
+    eps = 2.220446049250313e-16
+    N = f.size
+    fpos = np.maximum(f, 0.0)
+    upper_b = np.empty(N)
+    ok = np.empty(N, dtype=np.bool_)
+    for i in range(N):
+        ok[i] = fp[i] < 0.0 and fp[i] * fp[i] >= 2.5 * A[i] * fpos[i]
+        if ok[i]:
+            disc = fp[i] * fp[i] - 2.0 * A[i] * fpos[i]
+            upper_b[i] = 2.0 * fpos[i] / (-fp[i] + math.sqrt(max(disc, 0.0)))
+        else:
+            upper_b[i] = math.inf
+    m = int(np.argmin(h))
+    span = upper_b[m]
+    while True:
+        group = np.flatnonzero(h < span)
+        if group.size == 0:
+            group = np.array([m], dtype=np.int64)
+        for i in group:
+            if not ok[i]:
+                return -1.0, group
+        new_span = upper_b[group].max()
+        if new_span <= span:
+            break
+        span = new_span
+    best = math.inf
+    lead = group[0]
+    for i in group:
+        est = fpos[i] / -fp[i]
+        if est < best:
+            best = est
+            lead = i
+    tau_hi = tau + upper_b[lead]
+    tau_c = _newton_root(seg, theta, code, offsets, row_of, S, lower, diag, upper, t_c, Gamma, nf, lead,
+                         tau, tau_hi, f[lead], fp[lead], A[lead])
+    repeats = group.size if group.size > 1 else 0
+    for _ in range(repeats):
+        any_early = False
+        best = math.inf
+        j = group[0]
+        for i in group:
+            val = _value_slope(seg, theta, code, offsets, row_of, S, lower, diag, upper, t_c, Gamma, nf, i,
+                               tau_c)[0]
+            if val < -time_tol * abs(fp[i]) - 64 * eps:
+                any_early = True
+            r = val / -fp[i]
+            if r < best:
+                best = r
+                j = i
+        if not any_early:
+            break
+        tau_c = _newton_root(seg, theta, code, offsets, row_of, S, lower, diag, upper, t_c, Gamma, nf, j,
+                             tau, tau_c, f[j], fp[j], A[j])
+    return tau_c, group
