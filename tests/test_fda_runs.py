@@ -319,3 +319,35 @@ def test_compiled_event_sets_equal_numpy():
         n_contact += nc
         n_lift += nl
     assert n_contact > 20 and n_lift > 20
+
+
+@needs_numba
+def test_compiled_search_start_and_run_sums_equal_numpy():
+    from tps_solver.solvers.fda.run_kernels import closed_abs_sum, search_start
+    lat = tps.Lattice.planar(n_nodes=30, length=15.0)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(23)
+    n_plate = 0
+    for trial in range(10):
+        free = rng.random(30) < 0.7
+        md = RunModes(lat, free, cache.run, cache.tri)
+        F = md.index
+        nf = F.size
+        wF = rng.standard_normal(nf) * (rng.random(nf) < 0.6)
+        zF = rng.random(nf) * (rng.random(nf) < 0.5)
+        g, dg = -0.3, 0.8
+        tri = md.L_FF.tri
+        acc, jerk, ea, at = np.empty(nf), np.zeros(nf), np.zeros(nf), np.empty(nf, dtype=bool)
+        eps_w, eps_z, k = search_start(wF, zF, F, tri.lower, tri.diag, tri.upper, g, dg, acc, jerk, ea, at)
+        ref_acc = md.L_FF @ wF + g
+        ref_at = (zF == 0.0) & (np.abs(wF) <= 64 * EPS * (1 + np.abs(wF).max(initial=0.0)))
+        assert np.array_equal(acc, ref_acc) and np.array_equal(at, ref_at) and k == np.count_nonzero(ref_at)
+        assert eps_z == 64 * EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
+        np.testing.assert_array_equal(jerk[at], (md.L_FF @ ref_acc + dg)[at])
+        np.testing.assert_array_equal(ea[at], (64 * EPS * (1.0 + abs(g) + md.absL_FF @ np.abs(wF)))[at])
+        n_plate += k
+        x = rng.random(nf)
+        out = np.empty(nf)
+        closed_abs_sum(x, md.offsets, out)
+        np.testing.assert_allclose(out, md.absV @ x, rtol=8 * EPS, atol=0)
+    assert n_plate > 10

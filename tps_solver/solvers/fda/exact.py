@@ -334,7 +334,13 @@ class Segment:
     def derivative_bound(self, tau, m):
         r"""Bound :math:`D_{m}` on :math:`|w^{(m)}|` of every free node, valid for all later times."""
         lam = self.modes.abs_lam
-        return self.modes.absV @ (lam ** m * np.exp(-lam * tau) * self._abs_a) + self._forcing[m]
+        x = lam ** m * np.exp(-lam * tau) * self._abs_a
+        kern = getattr(self.modes, "sum_kernel", None)
+        if kern is not None:
+            out = np.empty(x.size)
+            kern(x, self.modes.offsets, out)
+            return out + self._forcing[m]
+        return self.modes.absV @ x + self._forcing[m]
 
 
 def _safe_step(f, fp, A):
@@ -450,6 +456,7 @@ class ExactPropagator(Integrator):
             else bool(compiled)
         # imported on first use (inside the driver's loop)
         self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = self._bracket_kernel = None
+        self._start_kernel = self._sum_kernel = None
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -468,10 +475,13 @@ class ExactPropagator(Integrator):
                 self._kernel, self._step_kernel = rk.run_coefficients, rk.step_candidates
                 self._bounds_kernel, self._sets_kernel = rk.closed_bounds12, rk.tri_event_sets
                 self._bracket_kernel = rk.closed_bracket
+                self._start_kernel, self._sum_kernel = rk.search_start, rk.closed_abs_sum
             m = self._runs.modes(free, key)
             m.kernel, m.step_kernel = self._kernel, self._step_kernel
             m.bounds_kernel, m.sets_kernel = self._bounds_kernel, self._sets_kernel
             m.bracket_kernel = self._bracket_kernel if m.closed else None
+            m.start_kernel = self._start_kernel
+            m.sum_kernel = self._sum_kernel if m.closed else None
             return m
         m = self._cache.get(key)
         if m is None:
@@ -510,13 +520,22 @@ class ExactPropagator(Integrator):
         # exceeds the modal round-off (a guard, not a certificate; see the module docstring)
         wF, zF = w[F].copy(), zeta[F].copy()
         g0 = math.sin(t0) - 1.0 / Gamma
-        accF = L_FF @ wF + g0
-        eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
-        eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
-        at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
-        if np.any(at_plate):
-            eps_a = 64 * _EPS * (1.0 + abs(g0) + absL_FF @ np.abs(wF))
-            jerk = L_FF @ accF + math.cos(t0)
+        start = getattr(md, "start_kernel", None)
+        if start is not None:
+            tri = L_FF.tri
+            accF, jerk, eps_a, at_plate = np.empty(nf), np.zeros(nf), np.zeros(nf), np.empty(nf, dtype=bool)
+            eps_w, eps_z, n_plate = start(wF, zF, F, tri.lower, tri.diag, tri.upper, g0, math.cos(t0), accF, jerk,
+                                          eps_a, at_plate)
+        else:
+            accF = L_FF @ wF + g0
+            eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
+            eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
+            at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
+            n_plate = np.count_nonzero(at_plate)
+            if n_plate:
+                eps_a = 64 * _EPS * (1.0 + abs(g0) + absL_FF @ np.abs(wF))
+                jerk = L_FF @ accF + math.cos(t0)
+        if n_plate:
             C = seg.derivative_bound(0.0, 3)
             # released within the simultaneity window: a >= -time_tol * da/dt (to round-off)
             rel = at_plate & (jerk > 0.0) & (np.abs(accF) <= eps_a + self.time_tol * jerk)
@@ -766,9 +785,14 @@ class ExactPropagator(Integrator):
         wF, zF = seg.state(tau_c)
         t_c = t0 + tau_c
         g = math.sin(t_c) - 1.0 / self.Gamma
-        eps_z = 64 * _EPS * (1.0 + np.abs(seg.zeta0) + md.absV @ np.abs(seg.a) * max(1.0, tau_c))
         sets = getattr(md, "sets_kernel", None)
         if sets is not None:
+            if md.sum_kernel is not None:
+                amp = np.empty(F.size)
+                md.sum_kernel(seg._abs_a, md.offsets, amp)
+            else:
+                amp = md.absV @ seg._abs_a
+            eps_z = 64 * _EPS * (1.0 + np.abs(seg.zeta0) + amp * max(1.0, tau_c))
             tri = md.L_SF.tri
             contact, liftoff = np.empty(F.size, dtype=np.int64), np.empty(S.size, dtype=np.int64)
             nc, nl = sets(g, math.cos(t_c), wF, zF, F, S, tri.lower, tri.diag, tri.upper, self.time_tol, eps_z,
@@ -777,6 +801,7 @@ class ExactPropagator(Integrator):
             contact = contact[self._guard[contact] <= t_c]
             w, z = self._full(F, n, wF, zF)
             return t_c, w, z, contact, liftoff, samples
+        eps_z = 64 * _EPS * (1.0 + np.abs(seg.zeta0) + md.absV @ np.abs(seg.a) * max(1.0, tau_c))
         eps_a = 64 * _EPS * (1.0 + abs(g) + md.absL_SF @ np.abs(wF))
         contact, liftoff = event_sets(t_c, wF, zF, F, S, md.L_FF, md.L_SF, self.Gamma,
                                       self.time_tol, eps_z, eps_a, absL_FF=md.absL_FF)

@@ -503,3 +503,92 @@ def closed_bracket(f, fp, A, h, tau, time_tol, seg, theta, code, offsets, row_of
         tau_c = _newton_root(seg, theta, code, offsets, row_of, S, lower, diag, upper, t_c, Gamma, nf, j,
                              tau, tau_c, f[j], fp[j], A[j])
     return tau_c, group
+
+
+@kernel
+def closed_abs_sum(x, offsets, out):
+    r"""``out`` = the bound :math:`\sum_k x_k` over each closed-form run, broadcast to its rows (of ``|V| x``).
+
+    Examples
+    --------
+    >>> out = np.empty(3)
+    >>> closed_abs_sum(np.array([1.0, 2.0, 4.0]), np.array([0, 2, 3]), out)
+    >>> out.tolist()
+    [3.0, 3.0, 4.0]
+    """
+    for r in range(offsets.size - 1):
+        s = 0.0
+        for k in range(offsets[r], offsets[r + 1]):
+            s += x[k]
+        for k in range(offsets[r], offsets[r + 1]):
+            out[k] = s
+
+
+@kernel
+def search_start(wF, zF, F, lower, diag, upper, g, dg, accF, jerk, eps_a, at_plate):
+    r"""The start of a contact search: free accelerations, round-off levels and the nodes at rest on the plate.
+
+    Fills ``accF`` (:math:`\underline L_{FF}w_F + g`) and ``at_plate`` (:math:`\zeta = 0`,
+    :math:`|w| \le \epsilon_w`); for the nodes at the plate also ``jerk``
+    (:math:`\underline L_{FF}a_F + \dot g`) and ``eps_a``
+    (:math:`64\epsilon(1 + |g| + (|\underline L_{FF}||w_F|)_j)`).
+
+    Returns
+    -------
+    eps_w, eps_z : float
+        :math:`64\epsilon(1 + \max|w|)` and :math:`64\epsilon(1 + \max|\zeta| + \max|w|)`.
+    n_at_plate : int
+
+    Examples
+    --------
+    Two free nodes at rest on the plate under g = -0.4:
+
+    >>> F = np.array([0, 1])
+    >>> acc, jerk, ea, at = np.empty(2), np.empty(2), np.empty(2), np.empty(2, dtype=np.bool_)
+    >>> eps_w, eps_z, k = search_start(np.zeros(2), np.zeros(2), F, np.array([0.0, 2.0]), np.array([-2.0, -2.0]),
+    ...                                np.array([2.0, 0.0]), -0.4, 1.0, acc, jerk, ea, at)
+    >>> k, acc.tolist(), jerk.tolist()
+    (2, [-0.4, -0.4], [1.0, 1.0])
+    """
+    eps64 = 64.0 * 2.220446049250313e-16
+    n = lower.size
+    nf = F.size
+    u = np.zeros(n)
+    wmax = 0.0
+    zmax = 0.0
+    for j in range(nf):
+        u[F[j]] = wF[j]
+        if abs(wF[j]) > wmax:
+            wmax = abs(wF[j])
+        if abs(zF[j]) > zmax:
+            zmax = abs(zF[j])
+    eps_w = eps64 * (1.0 + wmax)
+    eps_z = eps64 * (1.0 + zmax + wmax)
+    acc = np.zeros(n)
+    for j in range(nf):
+        i = F[j]
+        a = diag[i] * u[i]
+        if i > 0:
+            a += lower[i] * u[i - 1]
+        if i < n - 1:
+            a += upper[i] * u[i + 1]
+        acc[i] = a + g
+        accF[j] = a + g
+    count = 0
+    for j in range(nf):
+        at_plate[j] = zF[j] == 0.0 and abs(wF[j]) <= eps_w
+        if not at_plate[j]:
+            continue
+        count += 1
+        i = F[j]
+        b = diag[i] * acc[i]
+        e = abs(diag[i]) * abs(u[i])
+        if i > 0:
+            b += lower[i] * acc[i - 1]
+            e += abs(lower[i]) * abs(u[i - 1])
+        if i < n - 1:
+            b += upper[i] * acc[i + 1]
+            e += abs(upper[i]) * abs(u[i + 1])
+        jerk[j] = b + dg
+        eps_a[j] = eps64 * (1.0 + abs(g) + e)
+    return eps_w, eps_z, count
