@@ -271,7 +271,7 @@ def test_axisymmetric_sticking_same_events():
 
 @needs_numba
 def test_compiled_bounds_equal_numpy():
-    from tps_solver.solvers.fda.run_kernels import closed_bounds12
+    from tps_solver.solvers.fda.run_kernels import closed_bound, closed_bounds12
     lat = tps.Lattice.planar(n_nodes=40, length=20.0)
     cache = RunCache(lat, Modes)
     rng = np.random.default_rng(3)
@@ -289,6 +289,14 @@ def test_compiled_bounds_equal_numpy():
             md.kernel = md.bounds_kernel = None
         for a, b in zip(ref, new):
             np.testing.assert_allclose(b, a, rtol=64 * EPS, atol=0)
+        for p in (1, 2, 3):
+            ref = seg.derivative_bound(tau, p)
+            md.bound_kernel = closed_bound
+            try:
+                new = seg.derivative_bound(tau, p)
+            finally:
+                md.bound_kernel = None
+            np.testing.assert_allclose(new, ref, rtol=64 * EPS, atol=0)
 
 
 @needs_numba

@@ -334,13 +334,12 @@ class Segment:
     def derivative_bound(self, tau, m):
         r"""Bound :math:`D_{m}` on :math:`|w^{(m)}|` of every free node, valid for all later times."""
         lam = self.modes.abs_lam
-        x = lam ** m * np.exp(-lam * tau) * self._abs_a
-        kern = getattr(self.modes, "sum_kernel", None)
+        kern = getattr(self.modes, "bound_kernel", None)
         if kern is not None:
-            out = np.empty(x.size)
-            kern(x, self.modes.offsets, out)
-            return out + self._forcing[m]
-        return self.modes.absV @ x + self._forcing[m]
+            out = np.empty(lam.size)
+            kern(lam, self._abs_a, float(tau), m, self.modes.offsets, self._forcing[m], out)
+            return out
+        return self.modes.absV @ (lam ** m * np.exp(-lam * tau) * self._abs_a) + self._forcing[m]
 
 
 def _safe_step(f, fp, A):
@@ -456,7 +455,7 @@ class ExactPropagator(Integrator):
             else bool(compiled)
         # imported on first use (inside the driver's loop)
         self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = self._bracket_kernel = None
-        self._start_kernel = self._sum_kernel = None
+        self._start_kernel = self._sum_kernel = self._bound_kernel = None
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -476,12 +475,14 @@ class ExactPropagator(Integrator):
                 self._bounds_kernel, self._sets_kernel = rk.closed_bounds12, rk.tri_event_sets
                 self._bracket_kernel = rk.closed_bracket
                 self._start_kernel, self._sum_kernel = rk.search_start, rk.closed_abs_sum
+                self._bound_kernel = rk.closed_bound
             m = self._runs.modes(free, key)
             m.kernel, m.step_kernel = self._kernel, self._step_kernel
             m.bounds_kernel, m.sets_kernel = self._bounds_kernel, self._sets_kernel
             m.bracket_kernel = self._bracket_kernel if m.closed else None
             m.start_kernel = self._start_kernel
             m.sum_kernel = self._sum_kernel if m.closed else None
+            m.bound_kernel = self._bound_kernel if m.closed else None
             return m
         m = self._cache.get(key)
         if m is None:
@@ -558,7 +559,8 @@ class ExactPropagator(Integrator):
             dg = math.cos(t_now)
             A, B = seg.bounds12(tau)
             if step_kernel is not None:
-                f, fp, Abound, h = (np.empty(nf + S.size) for _ in range(4))
+                if steps == 1:
+                    f, fp, Abound, h = np.empty((4, nf + S.size))        # rewritten in place at each step
                 step_kernel(zF, wF, A, B, release - tau, eps_w, g, dg, F, S, tri.lower, tri.diag, tri.upper,
                             f, fp, Abound, h)
             else:

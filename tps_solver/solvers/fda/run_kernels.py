@@ -592,3 +592,24 @@ def search_start(wF, zF, F, lower, diag, upper, g, dg, accF, jerk, eps_a, at_pla
         jerk[j] = b + dg
         eps_a[j] = eps64 * (1.0 + abs(g) + e)
     return eps_w, eps_z, count
+
+
+@kernel
+def closed_bound(abs_lam, abs_a, tau, p, offsets, forcing, out):
+    r"""The bound :math:`D_p` of :meth:`~tps_solver.solvers.fda.exact.Segment.derivative_bound` (in place),
+    every run closed-form: :math:`\sum_k|\lambda_k|^p e^{-|\lambda_k|\tau}|a_k|` over each run plus ``forcing``.
+
+    Examples
+    --------
+    >>> out = np.empty(2)
+    >>> closed_bound(np.array([0.0, 2.0]), np.ones(2), 0.0, 3, np.array([0, 2]), np.ones(2), out)
+    >>> out.tolist()
+    [9.0, 9.0]
+    """
+    for r in range(offsets.size - 1):
+        s = 0.0
+        for k in range(offsets[r], offsets[r + 1]):
+            lam = abs_lam[k]
+            s += lam ** p * (math.exp(-lam * tau) * abs_a[k])
+        for k in range(offsets[r], offsets[r + 1]):
+            out[k] = s + forcing[k]

@@ -397,7 +397,7 @@ class RunModes:
         self.forced = np.flatnonzero(self.s)
         # compiled kernels (set by the propagator), or None: numpy
         self.kernel = self.step_kernel = self.bounds_kernel = self.sets_kernel = self.bracket_kernel = None
-        self.start_kernel = self.sum_kernel = None
+        self.start_kernel = self.sum_kernel = self.bound_kernel = None
         #: every run closed-form (the compiled bounds sum each run's modes)
         self.closed = all(isinstance(r, ClosedRun) for r in self.runs)
         if self.closed:         # the closed forms as arrays (compiled root polish): angles, end types
