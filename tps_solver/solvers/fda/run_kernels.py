@@ -19,6 +19,16 @@ with numba when the ``fast`` extra is installed (:mod:`tps_solver.core.jit`); th
 :meth:`~tps_solver.solvers.fda.exact.ExactPropagator.advance` (the candidates, their safe steps
 and bounds) with the tridiagonal operator products done node by node, in the same arithmetic
 order as :class:`~tps_solver.solvers.fda.runs.Tridiagonal`.
+
+The rest of an event's hot path, each the loop form of a numpy reference in
+:mod:`~tps_solver.solvers.fda.exact` (tested against it in ``tests/test_fda_runs.py``):
+:func:`search_start` (free accelerations, round-off levels and the nodes at rest on the plate),
+:func:`closed_bounds12`, :func:`closed_bound` and :func:`closed_abs_sum` (the derivative bounds of
+closed-form runs, one sum per run since :math:`|V_{jk}| \le 1`), :func:`closed_bracket` (the
+certified bracket, the candidate group, the Newton polish and the repair of the order, with the
+closed-form rows of :meth:`~tps_solver.solvers.fda.runs.ClosedRun.row` evaluated in place) and
+:func:`tri_event_sets` (the contact and lift-off sets (54) of
+:func:`~tps_solver.solvers.fda.events.event_sets`).  The run transforms (DST/DCT) stay in scipy.
 """
 import math
 
@@ -26,7 +36,8 @@ import numpy as np
 
 from tps_solver.core.jit import kernel
 
-__all__ = ["run_coefficients", "step_candidates"]
+__all__ = ["run_coefficients", "step_candidates", "closed_bounds12", "tri_event_sets", "closed_bracket",
+           "closed_abs_sum", "search_start", "closed_bound"]
 
 _PHI2_SERIES = 1.0 / np.array([math.factorial(k + 2) for k in range(10)])
 
