@@ -359,3 +359,44 @@ def test_compiled_search_start_and_run_sums_equal_numpy():
         closed_abs_sum(x, md.offsets, out)
         np.testing.assert_allclose(out, md.absV @ x, rtol=8 * EPS, atol=0)
     assert n_plate > 10
+
+
+@needs_numba
+def test_compiled_bracket_equals_numpy():
+    # random flights of closed-form runs: the compiled bracket, group and root against the numpy _bracket
+    from tps_solver.solvers.fda.exact import ExactPropagator
+    from tps_solver.solvers.fda.run_kernels import closed_bracket
+    lat = tps.Lattice.planar(n_nodes=24, length=12.0)
+    prop = ExactPropagator(lat, 4.1, 0.0, compiled=False)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(29)
+    found, grouped = 0, 0
+    for trial in range(60):
+        free = rng.random(24) < 0.75
+        md = RunModes(lat, free, cache.run, cache.tri)
+        F, S = md.index, md.stuck
+        nf = F.size
+        t_c = rng.uniform(0, 2 * np.pi)
+        if trial % 2:           # a near-uniform landing: groups of several candidates, order repaired
+            w0, z0 = -0.5 * (1.0 + 0.01 * rng.random(nf)), 1e-3 * (1.0 + 0.01 * rng.random(nf))
+        else:
+            w0, z0 = -rng.random(nf) - 0.1, 1e-3 * rng.random(nf)
+        seg = Segment(md, t_c, w0, z0, 4.1)
+        wF, zF = seg.state(0.0)
+        A, B = seg.bounds12(0.0)
+        g = np.sin(t_c) - 1 / 4.1
+        f, fp, Ab, h = ExactPropagator._candidates(zF, wF, A, B, np.full(nf, -1.0), 1e-14, g, np.cos(t_c),
+                                                   md.L_FF, md.L_SF, md.absL_SF, S.size > 0)
+        ref = prop._bracket(seg, md, f, fp, Ab, h, 0.0, nf)
+        md.bracket_kernel = closed_bracket
+        try:
+            new = prop._bracket(seg, md, f, fp, Ab, h, 0.0, nf)
+        finally:
+            md.bracket_kernel = None
+        assert (ref is None) == (new is None)
+        if ref is not None:
+            found += 1
+            grouped += ref[1].size > 1
+            assert new[1].tolist() == ref[1].tolist()
+            assert abs(new[0] - ref[0]) <= 1e-14 + 16 * EPS * abs(ref[0])
+    assert found > 20 and grouped > 5
