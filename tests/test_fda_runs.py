@@ -400,3 +400,21 @@ def test_compiled_bracket_equals_numpy():
             assert new[1].tolist() == ref[1].tolist()
             assert abs(new[0] - ref[0]) <= 1e-14 + 16 * EPS * abs(ref[0])
     assert found > 20 and grouped > 5
+
+
+@needs_numba
+def test_compiled_pulled_off_equals_numpy():
+    from tps_solver.solvers.fda.events import pulled_off
+    from tps_solver.solvers.fda.run_kernels import tri_pulled_off
+    lat = tps.Lattice.planar(n_nodes=30, length=15.0)
+    rng = np.random.default_rng(31)
+    total = 0
+    for trial in range(30):
+        stuck = rng.random(30) < 0.5
+        w = np.where(stuck, 0.0, rng.standard_normal(30) * 0.3)
+        t = rng.uniform(0, 2 * np.pi)
+        ref = pulled_off(t, w, stuck, lat, 4.1)
+        new = pulled_off(t, w, stuck, lat, 4.1, kernel=tri_pulled_off)
+        assert new.tolist() == ref.tolist()
+        total += ref.size
+    assert total > 10

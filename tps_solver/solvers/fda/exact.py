@@ -459,6 +459,11 @@ class ExactPropagator(Integrator):
         # imported on first use (inside the driver's loop)
         self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = self._bracket_kernel = None
         self._start_kernel = self._sum_kernel = self._bound_kernel = None
+        #: compiled :func:`~.events.pulled_off` of the driver (with the run path's kernels), or None
+        self.pulled_off_kernel = None
+        if self.compiled and self._runs is not None:
+            from tps_solver.solvers.fda.run_kernels import tri_pulled_off
+            self.pulled_off_kernel = tri_pulled_off
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)

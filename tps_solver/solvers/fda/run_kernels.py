@@ -624,3 +624,36 @@ def closed_bound(abs_lam, abs_a, tau, p, offsets, forcing, out):
             s += lam ** p * (math.exp(-lam * tau) * abs_a[k])
         for k in range(offsets[r], offsets[r + 1]):
             out[k] = s + forcing[k]
+
+
+@kernel
+def tri_pulled_off(g, w, stuck, lower, diag, upper, out):
+    r""":func:`~tps_solver.solvers.fda.events.pulled_off` on a tridiagonal operator: writes the stuck nodes
+    whose free acceleration :math:`g + (\underline L w)_i` exceeds :math:`64\epsilon(1 + |g| + (|\underline L||w|)_i)`
+    to ``out`` and returns their number.
+
+    Examples
+    --------
+    >>> out = np.empty(3, dtype=np.int64)
+    >>> tri_pulled_off(-0.4, np.array([1.0, 0.0, 0.0]), np.array([False, True, False]), np.array([0.0, 1.0, 2.0]),
+    ...                np.array([-2.0, -2.0, -2.0]), np.array([2.0, 1.0, 0.0]), out), int(out[0])
+    (1, 1)
+    """
+    eps64 = 64.0 * 2.220446049250313e-16
+    n = w.size
+    k = 0
+    for i in range(n):
+        if not stuck[i]:
+            continue
+        a = diag[i] * w[i]
+        e = abs(diag[i]) * abs(w[i])
+        if i > 0:
+            a += lower[i] * w[i - 1]
+            e += abs(lower[i]) * abs(w[i - 1])
+        if i < n - 1:
+            a += upper[i] * w[i + 1]
+            e += abs(upper[i]) * abs(w[i + 1])
+        if g + a > eps64 * (1.0 + abs(g) + e):
+            out[k] = i
+            k += 1
+    return k
