@@ -21,9 +21,20 @@ Run (from the repository root)::
 
     OMP_NUM_THREADS=1 PYTHONPATH=. python benchmarks/period_map_benchmark.py [--sizes 41 81 161 321 641]
         [--old-max 321] [--repeat 3]
+
+Before -> after of the run path against another checkout of the library (e.g. the commit before a
+change, ``git archive <commit> | tar -x -C /tmp/base``): ``--baseline /tmp/base`` times the run path
+(``modes="runs"``, default kernels) of both trees in fresh processes, interleaved ``--repeat`` times,
+and prints the minimum CPU seconds per period map of each and their ratio::
+
+    OMP_NUM_THREADS=1 PYTHONPATH=. python benchmarks/period_map_benchmark.py --baseline /tmp/base
 """
 import argparse
+import json
 import math
+import os
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -49,8 +60,55 @@ def settled_map(n, settle):
     return maps, maps["runs"].pack(r.w, r.zeta)
 
 
+def worker(sizes, settle, repeat=3):
+    """Minimum CPU seconds of the run-path period map per size, in this process's library (printed as JSON)."""
+    out = {}
+    with threadpool_limits(1):
+        for n in sizes:
+            maps, x = settled_map(n, settle)
+            m = maps["runs"]
+            m.run(x)                # compile and fill the run caches, as in a shooting run
+            best = np.inf
+            for _ in range(repeat):
+                tic = time.process_time()
+                r = m.run(x)
+                best = min(best, time.process_time() - tic)
+            out[n] = (best, int(r.events.size))
+    print(json.dumps(out))
+
+
+def compare(baseline, sizes, settle, repeat):
+    """Interleaved fresh processes of this tree and ``baseline``: a before -> after table of the run path."""
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    trees = {"before": os.path.abspath(baseline), "after": here}
+    best = {k: {} for k in trees}
+    for _ in range(repeat):
+        for key, tree in trees.items():
+            env = dict(os.environ, PYTHONPATH=tree, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+            cmd = [sys.executable, os.path.abspath(__file__), "--worker", "--settle", str(settle), "--sizes",
+                   *map(str, sizes)]
+            res = json.loads(subprocess.run(cmd, env=env, capture_output=True, text=True, check=True,
+                                            cwd=tree).stdout.strip().splitlines()[-1])
+            for n, (t, ev) in res.items():
+                old = best[key].get(int(n), (np.inf, ev))
+                best[key][int(n)] = (min(old[0], t), ev)
+        print("round done", flush=True)
+    print(f"\n| nodes | events / period | runs s, before | runs s, after | ratio |")
+    print("|---|---|---|---|---|")
+    for n in sizes:
+        (b, ev), (a, ev2) = best["before"][n], best["after"][n]
+        print(f"| {n} | {ev2}{'' if ev == ev2 else f' (before: {ev})'} | {b:.3f} | {a:.3f} | {b / a:.2f} |")
+    for key in trees:
+        sel = [n for n in sizes if n >= 81]
+        if len(sel) >= 2:
+            t0, t1 = best[key][sel[0]][0], best[key][sel[-1]][0]
+            print(f"exponent {key} from {sel[0]} to {sel[-1]} nodes: {math.log(t1 / t0) / math.log(sel[-1] / sel[0]):.2f}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", default=None, help="another checkout: before -> after of the run path")
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--sizes", type=int, nargs="+", default=[41, 81, 161, 321, 641])
     parser.add_argument("--old-max", type=int, default=321, help="largest size timed on the old path")
     parser.add_argument("--repeat", type=int, default=3)
@@ -58,6 +116,10 @@ def main():
     parser.add_argument("--accuracy-max", type=int, default=161,
                         help="largest size of the 10-period comparison of the event times")
     args = parser.parse_args()
+    if args.worker:
+        return worker(args.sizes, args.settle)
+    if args.baseline is not None:
+        return compare(args.baseline, args.sizes, args.settle, args.repeat)
     rows, acc = [], {}
     with threadpool_limits(1):
         for n in args.sizes:

@@ -267,3 +267,154 @@ def test_axisymmetric_sticking_same_events():
     a, b = _both(lat, 4.1, 0.0, w, z, t0, t0 + 2 * fl.period)
     assert np.count_nonzero(b.events.kind == "liftoff") >= 12
     _same_events(a, b, 1e-11)
+
+
+@needs_numba
+def test_compiled_bounds_equal_numpy():
+    from tps_solver.solvers.fda.run_kernels import closed_bound, closed_bounds12
+    lat = tps.Lattice.planar(n_nodes=40, length=20.0)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(3)
+    free = rng.random(40) < 0.8
+    md = RunModes(lat, free, cache.run, cache.tri)
+    assert md.closed and len(md.runs) > 2
+    F = md.index
+    seg = Segment(md, 1.0, rng.standard_normal(F.size), rng.random(F.size), 4.1)   # numpy: no kernel
+    for tau in (0.0, 1e-6, 0.7):
+        ref = seg.bounds12(tau)
+        md.kernel, md.bounds_kernel = object(), closed_bounds12          # the compiled branch
+        try:
+            new = seg.bounds12(tau)
+        finally:
+            md.kernel = md.bounds_kernel = None
+        for a, b in zip(ref, new):
+            np.testing.assert_allclose(b, a, rtol=64 * EPS, atol=0)
+        for p in (1, 2, 3):
+            ref = seg.derivative_bound(tau, p)
+            md.bound_kernel = closed_bound
+            try:
+                new = seg.derivative_bound(tau, p)
+            finally:
+                md.bound_kernel = None
+            np.testing.assert_allclose(new, ref, rtol=64 * EPS, atol=0)
+
+
+@needs_numba
+def test_compiled_event_sets_equal_numpy():
+    # rest-on-the-plate contacts, lift-offs within time_tol, beyond eps_a, and none: against event_sets
+    from tps_solver.solvers.fda.events import event_sets
+    from tps_solver.solvers.fda.run_kernels import tri_event_sets
+    lat = tps.Lattice.planar(n_nodes=30, length=15.0)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(17)
+    n_contact = n_lift = 0
+    for trial in range(40):
+        free = rng.random(30) < 0.7
+        md = RunModes(lat, free, cache.run, cache.tri)
+        F, S = md.index, md.stuck
+        nf = F.size
+        wF = rng.standard_normal(nf) * (rng.random(nf) < 0.7)
+        zF = rng.random(nf) * (rng.random(nf) < 0.5)
+        t = rng.uniform(0, 2 * np.pi)
+        eps_z = np.full(nf, 1e-14)
+        ref = event_sets(t, wF, zF, F, S, md.L_FF, md.L_SF, 4.1, 1e-12, eps_z,
+                         64 * EPS * (1.0 + abs(np.sin(t) - 1 / 4.1) + md.absL_SF @ np.abs(wF)), absL_FF=md.absL_FF)
+        tri = md.L_FF.tri
+        c, l = np.empty(nf, dtype=np.int64), np.empty(S.size, dtype=np.int64)
+        nc, nl = tri_event_sets(np.sin(t) - 1 / 4.1, np.cos(t), wF, zF, F, S, tri.lower, tri.diag, tri.upper,
+                                1e-12, eps_z, c, l)
+        assert c[:nc].tolist() == ref[0].tolist() and l[:nl].tolist() == ref[1].tolist()
+        n_contact += nc
+        n_lift += nl
+    assert n_contact > 20 and n_lift > 20
+
+
+@needs_numba
+def test_compiled_search_start_and_run_sums_equal_numpy():
+    from tps_solver.solvers.fda.run_kernels import closed_abs_sum, search_start
+    lat = tps.Lattice.planar(n_nodes=30, length=15.0)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(23)
+    n_plate = 0
+    for trial in range(10):
+        free = rng.random(30) < 0.7
+        md = RunModes(lat, free, cache.run, cache.tri)
+        F = md.index
+        nf = F.size
+        wF = rng.standard_normal(nf) * (rng.random(nf) < 0.6)
+        zF = rng.random(nf) * (rng.random(nf) < 0.5)
+        g, dg = -0.3, 0.8
+        tri = md.L_FF.tri
+        acc, jerk, ea, at = np.empty(nf), np.zeros(nf), np.zeros(nf), np.empty(nf, dtype=bool)
+        eps_w, eps_z, k = search_start(wF, zF, F, tri.lower, tri.diag, tri.upper, g, dg, acc, jerk, ea, at)
+        ref_acc = md.L_FF @ wF + g
+        ref_at = (zF == 0.0) & (np.abs(wF) <= 64 * EPS * (1 + np.abs(wF).max(initial=0.0)))
+        assert np.array_equal(acc, ref_acc) and np.array_equal(at, ref_at) and k == np.count_nonzero(ref_at)
+        assert eps_z == 64 * EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
+        np.testing.assert_array_equal(jerk[at], (md.L_FF @ ref_acc + dg)[at])
+        np.testing.assert_array_equal(ea[at], (64 * EPS * (1.0 + abs(g) + md.absL_FF @ np.abs(wF)))[at])
+        n_plate += k
+        x = rng.random(nf)
+        out = np.empty(nf)
+        closed_abs_sum(x, md.offsets, out)
+        np.testing.assert_allclose(out, md.absV @ x, rtol=8 * EPS, atol=0)
+    assert n_plate > 10
+
+
+@needs_numba
+def test_compiled_bracket_equals_numpy():
+    # random flights of closed-form runs: the compiled bracket, group and root against the numpy _bracket
+    from tps_solver.solvers.fda.exact import ExactPropagator
+    from tps_solver.solvers.fda.run_kernels import closed_bracket
+    lat = tps.Lattice.planar(n_nodes=24, length=12.0)
+    prop = ExactPropagator(lat, 4.1, 0.0, compiled=False)
+    cache = RunCache(lat, Modes)
+    rng = np.random.default_rng(29)
+    found, grouped = 0, 0
+    for trial in range(60):
+        free = rng.random(24) < 0.75
+        md = RunModes(lat, free, cache.run, cache.tri)
+        F, S = md.index, md.stuck
+        nf = F.size
+        t_c = rng.uniform(0, 2 * np.pi)
+        if trial % 2:           # a near-uniform landing: groups of several candidates, order repaired
+            w0, z0 = -0.5 * (1.0 + 0.01 * rng.random(nf)), 1e-3 * (1.0 + 0.01 * rng.random(nf))
+        else:
+            w0, z0 = -rng.random(nf) - 0.1, 1e-3 * rng.random(nf)
+        seg = Segment(md, t_c, w0, z0, 4.1)
+        wF, zF = seg.state(0.0)
+        A, B = seg.bounds12(0.0)
+        g = np.sin(t_c) - 1 / 4.1
+        f, fp, Ab, h = ExactPropagator._candidates(zF, wF, A, B, np.full(nf, -1.0), 1e-14, g, np.cos(t_c),
+                                                   md.L_FF, md.L_SF, md.absL_SF, S.size > 0)
+        ref = prop._bracket(seg, md, f, fp, Ab, h, 0.0, nf)
+        md.bracket_kernel = closed_bracket
+        try:
+            new = prop._bracket(seg, md, f, fp, Ab, h, 0.0, nf)
+        finally:
+            md.bracket_kernel = None
+        assert (ref is None) == (new is None)
+        if ref is not None:
+            found += 1
+            grouped += ref[1].size > 1
+            assert new[1].tolist() == ref[1].tolist()
+            assert abs(new[0] - ref[0]) <= 1e-14 + 16 * EPS * abs(ref[0])
+    assert found > 20 and grouped > 5
+
+
+@needs_numba
+def test_compiled_pulled_off_equals_numpy():
+    from tps_solver.solvers.fda.events import pulled_off
+    from tps_solver.solvers.fda.run_kernels import tri_pulled_off
+    lat = tps.Lattice.planar(n_nodes=30, length=15.0)
+    rng = np.random.default_rng(31)
+    total = 0
+    for trial in range(30):
+        stuck = rng.random(30) < 0.5
+        w = np.where(stuck, 0.0, rng.standard_normal(30) * 0.3)
+        t = rng.uniform(0, 2 * np.pi)
+        ref = pulled_off(t, w, stuck, lat, 4.1)
+        new = pulled_off(t, w, stuck, lat, 4.1, kernel=tri_pulled_off)
+        assert new.tolist() == ref.tolist()
+        total += ref.size
+    assert total > 10

@@ -204,6 +204,7 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
     """The one driver loop (see :func:`simulate`)."""
     n = lattice.n_nodes
     prop = cls(lattice, Gamma, e, **options)
+    pull_kernel = getattr(prop, "pulled_off_kernel", None)         # compiled pulled_off, or None: numpy
     if not cls.impulsive:
         cutoff = {"kind": "soft contact", "length": float(prop.options["cutoff"]),
                   "tau_c": float(prop.options["cutoff"]) ** 2}
@@ -231,7 +232,7 @@ def _integrate(cls, lattice, Gamma, e, w, zeta, stuck, t_start, t_end, t_eval, m
                     # with no stuck node (before or after the set) there is nothing to pull off and
                     # ``liftoff`` (a subset of the stuck nodes) is empty
                     if np.count_nonzero(stuck):
-                        pulled = pulled_off(t, w, stuck, lattice, Gamma)
+                        pulled = pulled_off(t, w, stuck, lattice, Gamma, kernel=pull_kernel)
                         if pulled.size or liftoff.size > 1:
                             liftoff = np.union1d(liftoff, pulled)
                 if liftoff.size:

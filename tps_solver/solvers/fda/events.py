@@ -411,8 +411,11 @@ def tridiagonal(lattice):
     return tri
 
 
-def pulled_off(t, w, stuck, lattice, Gamma):
+def pulled_off(t, w, stuck, lattice, Gamma, kernel=None):
     """Stuck nodes whose free acceleration is positive beyond round-off right now.
+
+    ``kernel``: :func:`~tps_solver.solvers.fda.run_kernels.tri_pulled_off` (the compiled loop, the
+    same arithmetic) or None (numpy, the reference).
 
     Called after a contact set is processed: an impact next to a stuck node
     changes :math:`(\\underline L\\underline w)_i` discontinuously and may pull the node
@@ -431,11 +434,14 @@ def pulled_off(t, w, stuck, lattice, Gamma):
     >>> pulled_off(0.0, np.array([0.2, 0.0, 0.0]), stuck, lat, 2.5).size       # g + 0.2 < 0
     0
     """
+    tri = tridiagonal(lattice)           # O(n): the operator is tridiagonal
+    g = math.sin(t) - 1.0 / Gamma
+    if kernel is not None:
+        out = np.empty(w.size, dtype=np.int64)
+        return out[:kernel(g, w, stuck, tri.lower, tri.diag, tri.upper, out)]
     S = np.flatnonzero(stuck)
     if S.size == 0:
         return S
-    tri = tridiagonal(lattice)           # O(n): the operator is tridiagonal
-    g = math.sin(t) - 1.0 / Gamma
     acc = g + tri.apply(w)[S]
     if not np.count_nonzero(acc > 0.0):       # eps_a > 0: no node is pulled off
         return S[:0]

@@ -320,6 +320,12 @@ class Segment:
 
     def bounds12(self, tau):
         """``(D_1, D_2)`` in one matrix product (see :meth:`derivative_bound`)."""
+        md = self.modes
+        if self._runs and md.closed and md.kernel is not None:
+            A, B = np.empty(md.lam.size), np.empty(md.lam.size)
+            md.bounds_kernel(md.abs_lam, self._abs_a, float(tau), md.offsets, self._forcing[1], self._forcing[2],
+                             A, B)
+            return A, B
         lam = self.modes.abs_lam
         decay = np.exp(-lam * tau) * self._abs_a
         D = self.modes.absV @ np.column_stack((lam * decay, lam * lam * decay))
@@ -328,6 +334,11 @@ class Segment:
     def derivative_bound(self, tau, m):
         r"""Bound :math:`D_{m}` on :math:`|w^{(m)}|` of every free node, valid for all later times."""
         lam = self.modes.abs_lam
+        kern = getattr(self.modes, "bound_kernel", None)
+        if kern is not None:
+            out = np.empty(lam.size)
+            kern(lam, self._abs_a, float(tau), m, self.modes.offsets, self._forcing[m], out)
+            return out
         return self.modes.absV @ (lam ** m * np.exp(-lam * tau) * self._abs_a) + self._forcing[m]
 
 
@@ -397,9 +408,12 @@ class ExactPropagator(Integrator):
     cache_size : int
         Number of free-set decompositions kept.
     compiled : bool or None
-        With ``modes="runs"``: the modal coefficients and the search steps by compiled kernels
-        (:mod:`.run_kernels`); default: when numba is enabled (:mod:`tps_solver.core.jit`) and
-        the lattice has at least :data:`COMPILED_MIN_NODES` nodes.  ``False``: the numpy reference.
+        With ``modes="runs"``: the per-event hot path by compiled kernels (:mod:`.run_kernels`):
+        the modal coefficients, the start of the search, the search steps, the derivative bounds
+        and, when every run has closed-form modes, the bracket, the Newton polish and its order
+        repair, and the contact and lift-off sets; default: when numba is enabled
+        (:mod:`tps_solver.core.jit`) and the lattice has at least :data:`COMPILED_MIN_NODES`
+        nodes.  ``False``: the numpy reference (the same events to about 1e-13).
     modes : {"runs", "free_set"}
         ``"runs"`` (default): the free set decomposed run by run (:mod:`.runs`: closed-form
         modes on uniform planar lattices, O(n log n) per event); ``"free_set"``: one dense
@@ -442,7 +456,14 @@ class ExactPropagator(Integrator):
         # 2 s, is more than the kernels save on smaller lattices in most runs)
         self.compiled = (jit.enabled() and lattice.n_nodes >= COMPILED_MIN_NODES) if compiled is None \
             else bool(compiled)
-        self._kernel = self._step_kernel = None        # imported on first use (inside the driver's loop)
+        # imported on first use (inside the driver's loop)
+        self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = self._bracket_kernel = None
+        self._start_kernel = self._sum_kernel = self._bound_kernel = None
+        #: compiled :func:`~.events.pulled_off` of the driver (with the run path's kernels), or None
+        self.pulled_off_kernel = None
+        if self.compiled and self._runs is not None:
+            from tps_solver.solvers.fda.run_kernels import tri_pulled_off
+            self.pulled_off_kernel = tri_pulled_off
         self._n_free_set = 0
         # absolute time until which a node released at rest is exempt from contact detection
         self._guard = np.full(lattice.n_nodes, -np.inf)
@@ -457,10 +478,19 @@ class ExactPropagator(Integrator):
         key = np.packbits(free).tobytes()
         if self._runs is not None:          # kept per lattice, across propagators (period maps)
             if self.compiled and self._kernel is None:
-                from tps_solver.solvers.fda.run_kernels import run_coefficients, step_candidates
-                self._kernel, self._step_kernel = run_coefficients, step_candidates
+                from tps_solver.solvers.fda import run_kernels as rk
+                self._kernel, self._step_kernel = rk.run_coefficients, rk.step_candidates
+                self._bounds_kernel, self._sets_kernel = rk.closed_bounds12, rk.tri_event_sets
+                self._bracket_kernel = rk.closed_bracket
+                self._start_kernel, self._sum_kernel = rk.search_start, rk.closed_abs_sum
+                self._bound_kernel = rk.closed_bound
             m = self._runs.modes(free, key)
             m.kernel, m.step_kernel = self._kernel, self._step_kernel
+            m.bounds_kernel, m.sets_kernel = self._bounds_kernel, self._sets_kernel
+            m.bracket_kernel = self._bracket_kernel if m.closed else None
+            m.start_kernel = self._start_kernel
+            m.sum_kernel = self._sum_kernel if m.closed else None
+            m.bound_kernel = self._bound_kernel if m.closed else None
             return m
         m = self._cache.get(key)
         if m is None:
@@ -499,13 +529,22 @@ class ExactPropagator(Integrator):
         # exceeds the modal round-off (a guard, not a certificate; see the module docstring)
         wF, zF = w[F].copy(), zeta[F].copy()
         g0 = math.sin(t0) - 1.0 / Gamma
-        accF = L_FF @ wF + g0
-        eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
-        eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
-        at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
-        if np.any(at_plate):
-            eps_a = 64 * _EPS * (1.0 + abs(g0) + absL_FF @ np.abs(wF))
-            jerk = L_FF @ accF + math.cos(t0)
+        start = getattr(md, "start_kernel", None)
+        if start is not None:
+            tri = L_FF.tri
+            accF, jerk, eps_a, at_plate = np.empty(nf), np.zeros(nf), np.zeros(nf), np.empty(nf, dtype=bool)
+            eps_w, eps_z, n_plate = start(wF, zF, F, tri.lower, tri.diag, tri.upper, g0, math.cos(t0), accF, jerk,
+                                          eps_a, at_plate)
+        else:
+            accF = L_FF @ wF + g0
+            eps_w = 64 * _EPS * (1.0 + np.abs(wF).max(initial=0.0))
+            eps_z = 64 * _EPS * (1.0 + np.abs(zF).max(initial=0.0) + np.abs(wF).max(initial=0.0))
+            at_plate = (zF == 0.0) & (np.abs(wF) <= eps_w)
+            n_plate = np.count_nonzero(at_plate)
+            if n_plate:
+                eps_a = 64 * _EPS * (1.0 + abs(g0) + absL_FF @ np.abs(wF))
+                jerk = L_FF @ accF + math.cos(t0)
+        if n_plate:
             C = seg.derivative_bound(0.0, 3)
             # released within the simultaneity window: a >= -time_tol * da/dt (to round-off)
             rel = at_plate & (jerk > 0.0) & (np.abs(accF) <= eps_a + self.time_tol * jerk)
@@ -528,7 +567,8 @@ class ExactPropagator(Integrator):
             dg = math.cos(t_now)
             A, B = seg.bounds12(tau)
             if step_kernel is not None:
-                f, fp, Abound, h = (np.empty(nf + S.size) for _ in range(4))
+                if steps == 1:
+                    f, fp, Abound, h = np.empty((4, nf + S.size))        # rewritten in place at each step
                 step_kernel(zF, wF, A, B, release - tau, eps_w, g, dg, F, S, tri.lower, tri.diag, tri.upper,
                             f, fp, Abound, h)
             else:
@@ -620,6 +660,14 @@ class ExactPropagator(Integrator):
 
     def _bracket(self, seg, md, f, fp, A, h, tau, nf):
         """Monotone brackets for the leading candidates; None if not all certified."""
+        kern = getattr(md, "bracket_kernel", None)
+        if kern is not None:
+            tri = md.L_SF.tri
+            segv = (md.lam, seg._a_ri, seg._rr, seg._ri, seg._sg, seg.zeta0)
+            tau_c, group = kern(f, fp, A, h, float(tau), self.time_tol, segv, md.theta, md.end_code, md.offsets,
+                                md.row_of, md.stuck, tri.lower, tri.diag, tri.upper, float(seg.t_c),
+                                float(self.Gamma), nf)
+            return None if tau_c < 0.0 else (tau_c, group)
         fpos = np.maximum(f, 0.0)
         disc = fp * fp - 2.0 * A * fpos
         ok = (fp < 0.0) & (fp * fp >= 2.5 * A * fpos)
@@ -747,6 +795,22 @@ class ExactPropagator(Integrator):
         wF, zF = seg.state(tau_c)
         t_c = t0 + tau_c
         g = math.sin(t_c) - 1.0 / self.Gamma
+        sets = getattr(md, "sets_kernel", None)
+        if sets is not None:
+            if md.sum_kernel is not None:
+                amp = np.empty(F.size)
+                md.sum_kernel(seg._abs_a, md.offsets, amp)
+            else:
+                amp = md.absV @ seg._abs_a
+            eps_z = 64 * _EPS * (1.0 + np.abs(seg.zeta0) + amp * max(1.0, tau_c))
+            tri = md.L_SF.tri
+            contact, liftoff = np.empty(F.size, dtype=np.int64), np.empty(S.size, dtype=np.int64)
+            nc, nl = sets(g, math.cos(t_c), wF, zF, F, S, tri.lower, tri.diag, tri.upper, self.time_tol, eps_z,
+                          contact, liftoff)
+            contact, liftoff = contact[:nc], liftoff[:nl]
+            contact = contact[self._guard[contact] <= t_c]
+            w, z = self._full(F, n, wF, zF)
+            return t_c, w, z, contact, liftoff, samples
         eps_z = 64 * _EPS * (1.0 + np.abs(seg.zeta0) + md.absV @ np.abs(seg.a) * max(1.0, tau_c))
         eps_a = 64 * _EPS * (1.0 + abs(g) + md.absL_SF @ np.abs(wF))
         contact, liftoff = event_sets(t_c, wF, zF, F, S, md.L_FF, md.L_SF, self.Gamma,

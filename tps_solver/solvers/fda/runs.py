@@ -323,6 +323,10 @@ class DenseRun:
         return self.md.absV @ x
 
 
+#: end types of a closed run as the integers of the compiled root polish (:mod:`.run_kernels`)
+_END_CODES = {"DD": 0, "ND": 1, "DN": 2, "NN": 3}
+
+
 class _RunOp:
     """``op @ c`` applying a per-run map to the concatenated modal (or nodal) vector ``c``."""
 
@@ -377,7 +381,7 @@ class RunModes:
         starts, stops = free_runs(free)
         self.runs = [run_of(int(a), int(b)) for a, b in zip(starts, stops)]
         lengths = stops - starts
-        self.offsets = np.concatenate(([0], np.cumsum(lengths)))
+        self.offsets = np.concatenate(([0], np.cumsum(lengths))).astype(np.int64)
         self.starts, self.stops = starts, stops
         idx = np.flatnonzero(free)
         self.index = idx
@@ -391,7 +395,16 @@ class RunModes:
             self.lam, self.s = np.empty(0), np.empty(0)
         self.abs_lam = np.abs(self.lam)
         self.forced = np.flatnonzero(self.s)
-        self.kernel = None          # compiled coefficients (set by the propagator), or None: numpy
+        # compiled kernels (set by the propagator), or None: numpy
+        self.kernel = self.step_kernel = self.bounds_kernel = self.sets_kernel = self.bracket_kernel = None
+        self.start_kernel = self.sum_kernel = self.bound_kernel = None
+        #: every run closed-form (the compiled bounds sum each run's modes)
+        self.closed = all(isinstance(r, ClosedRun) for r in self.runs)
+        if self.closed:         # the closed forms as arrays (compiled root polish): angles, end types
+            self.theta = np.concatenate([r._theta for r in self.runs]) if self.runs else np.empty(0)
+            self.end_code = np.array([_END_CODES[r.ends] for r in self.runs], dtype=np.int64)
+            self.row_of = np.full(lattice.n_nodes, -1, dtype=np.int64)
+            self.row_of[idx] = np.arange(idx.size)
         self.V = _RunOp(self.runs, self.offsets, "synthesis")
         self.Vinv = _RunOp(self.runs, self.offsets, "analysis")
         self.absV = _RunOp(self.runs, self.offsets, "abs_bound")
