@@ -446,16 +446,9 @@ class ExactPropagator(Integrator):
         self._runs = None
         if check_choice(self.options["modes"], "modes", ("runs", "free_set")) == "runs":
             self._runs = RunCache.of(lattice, Modes, tri=tridiagonal(lattice))
-        compiled = self.options["compiled"]
-        if compiled not in (None, True, False):
-            raise ValueError(f"compiled must be True, False or None, got {compiled!r}")
-        if compiled and not jit.enabled():
-            raise ValueError("compiled=True needs numba (pip install tps-solver[fast]) and TPS_SOLVER_NUMBA "
-                             "not set to 0; use compiled=None or False")
         # default: compiled from COMPILED_MIN_NODES nodes on (numba's start in a fresh process, about
         # 2 s, is more than the kernels save on smaller lattices in most runs)
-        self.compiled = (jit.enabled() and lattice.n_nodes >= COMPILED_MIN_NODES) if compiled is None \
-            else bool(compiled)
+        self.compiled = jit.compiled_option(self.options["compiled"], lattice.n_nodes >= COMPILED_MIN_NODES)
         # imported on first use (inside the driver's loop)
         self._kernel = self._step_kernel = self._bounds_kernel = self._sets_kernel = self._bracket_kernel = None
         self._start_kernel = self._sum_kernel = self._bound_kernel = None

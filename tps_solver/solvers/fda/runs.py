@@ -453,6 +453,21 @@ class RunCache:
     n_decompositions : int
         Dense decompositions computed (closed forms are not counted).
 
+    Examples
+    --------
+    Runs with closed forms are shared, not decomposed; a pinned end has none, so its run is
+    decomposed densely once and then reused:
+
+    >>> from tps_solver import Lattice
+    >>> from tps_solver.solvers.fda.exact import Modes
+    >>> cache = RunCache(Lattice.planar(n_nodes=6, length=5.0), Modes)
+    >>> a, b = cache.run(0, 3), cache.run(3, 6)
+    >>> type(a).__name__, a.ends, b.ends, cache.n_decompositions
+    ('ClosedRun', 'ND', 'DN', 0)
+    >>> pinned = RunCache(Lattice.planar(n_nodes=6, length=5.0, boundary="pinned"), Modes)
+    >>> r = pinned.run(0, 3); r is pinned.run(0, 3), type(r).__name__, pinned.n_decompositions
+    (True, 'DenseRun', 1)
+
     Notes
     -----
     :meth:`of` keeps one cache per lattice (weakly referenced), so the period maps of a
