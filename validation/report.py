@@ -68,6 +68,9 @@ SECTION_ORDER = (
     ("house", "One problem, one Newton"),
     ("faults", "Faults: unbounded calls, loose options, interrupts, damaged files"),
     ("faults2", "Faults, second battery: sizes out of reach, raw inputs, honest flags"),
+    ("period_map", "Period map of the e = 0 kink: run modes instead of free-set eigendecompositions"),
+    ("mirrored_multipliers", "Kink multipliers from the mirrored half-period map"),
+    ("soft_compiled", "The soft integrator compiled (numpy path vs compiled path vs Radau)"),
 )
 
 
