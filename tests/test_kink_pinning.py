@@ -4,7 +4,8 @@ import pytest
 
 from tps_solver.core.bunch import Bunch
 from validation.kink_pinning import (both_pinned, continuum_fit, continuum_width, convergence_rows, fit_convergence,
-                                     integral_width, mean_increments, pinned_kink, profile_widths, spline_width,
+                                     integral_width, mean_increments, pinned_kink, profile_widths, refined_instant,
+                                     spline_width,
                                      symmetry_centre)
 
 
@@ -132,10 +133,21 @@ def test_continuum_fit_and_convergence_rows():
         x = dx * (np.arange(n) - (n - 1) / 2)
         delta = 3.0 - 0.4 * np.sqrt(dx)
         rows.append(dict(Gamma=4.1, dx=dx, n_nodes=n, converged=True, mu1=1.0, width=0.0, seconds=1.0,
-                         profile=list(np.tanh(x / delta))))
+                         instant="refined", profile=list(np.tanh(x / delta))))
     assert profile_widths(dict(dx=1.0)) == (None, None)
+    assert profile_widths(dict(rows[0], instant=None)) == (None, None)     # a grid instant's profile
     cr = convergence_rows(rows[::-1])
     assert [r["dx"] for r in cr] == [0.5, 0.25, 0.125]
     exact = [(3.0 - 0.4 * np.sqrt(dx)) * np.log(9.0) for dx in (0.5, 0.25, 0.125)]
     assert [r["w_int"] for r in cr] == pytest.approx(exact, rel=1e-6)
     assert cr[2]["ratio"] == pytest.approx(1 / np.sqrt(2), rel=1e-5)
+
+
+def test_refined_instant():
+    # left end 1 - (t - 0.3)^2 (the lower far field, top at t = 0.3), right end 5: the maximum of the
+    # lower end found from a grid instant 0.0015 off (within the half step 1/512), to the search tolerance
+    def height(t):
+        t = np.asarray(t, float)[:, None]
+        return np.hstack([1.0 - (t - 0.3) ** 2, np.full_like(t, 3.0), np.full_like(t, 5.0)])
+    orb = Bunch(height=height, period=1.0)
+    assert refined_instant(orb, 0.3015, 1 / 512) == pytest.approx(0.3, abs=1e-8)
