@@ -151,3 +151,14 @@ def test_refined_instant():
         return np.hstack([1.0 - (t - 0.3) ** 2, np.full_like(t, 3.0), np.full_like(t, 5.0)])
     orb = Bunch(height=height, period=1.0)
     assert refined_instant(orb, 0.3015, 1 / 512) == pytest.approx(0.3, abs=1e-8)
+
+
+def test_continuum_fit_error_bar_covers_a_second_term():
+    # w = 7.5 - 0.2 sqrt(dx) + 0.5 dx^2: no single power law; the error bar includes the change on
+    # dropping the coarsest spacing and covers the true w0
+    d = 0.25 / 2.0 ** np.arange(4)
+    w = 7.5 - 0.2 * np.sqrt(d) + 0.5 * d ** 2
+    w0, err, fits = continuum_fit(d, w)
+    drop = abs(fits["p fitted, coarsest dropped"]["w0"] - w0)
+    assert drop > 1e-4 and err >= drop
+    assert abs(w0 - 7.5) <= err

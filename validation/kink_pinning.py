@@ -305,21 +305,36 @@ def fit_convergence(dx, width, p=None):
 
 
 def continuum_fit(dx, width):
-    """w0 and its error bar from the finest spacings: the fitted-p fit against p = 1/2 and p = 1.
+    """w0 and its error bar from the finest spacings: the fitted-p fit, fixed-p fits, a dropped spacing.
 
-    The stated w0 is the fitted-p value; its error bar is the root sum of squares of that fit's
-    standard error (0 if it has no degrees of freedom) and the largest change of w0 from it to
-    the fixed-p fits (p = 1/2, p = 1) whose rms residual is within 10 times the fitted-p one's
-    (or the best fixed-p fit if none is): the model's uncertainty.  Returns
-    ``(w0, error, fits)`` with ``fits`` the three fits by name.
+    The stated w0 is the fitted-p value.  Its error bar is the root sum of squares of (a) that
+    fit's standard error (0 if it has no degrees of freedom), (b) the largest change of w0 from it
+    to the fixed-p fits (p = 1/2, p = 1) whose rms residual is within 10 times the fitted-p one's
+    (or the better fixed-p fit if none is): the uncertainty of the law, and (c) with four or more
+    spacings, the change of the fitted-p w0 when the coarsest spacing is dropped: whether the
+    spacings are yet in the asymptotic range.  Returns ``(w0, error, fits)`` with ``fits`` the
+    fits by name (``"p fitted, coarsest dropped"`` only with four or more spacings).
+
+    Examples
+    --------
+    >>> d = np.array([0.25, 0.125, 0.0625, 0.03125])
+    >>> w0, err, fits = continuum_fit(d, 7.5 - 0.2 * np.sqrt(d))
+    >>> round(w0, 8), bool(err < 1e-7), sorted(fits)
+    (7.5, True, ['p = 1', 'p = 1/2', 'p fitted', 'p fitted, coarsest dropped'])
     """
-    fits = {"p fitted": fit_convergence(dx, width), "p = 1/2": fit_convergence(dx, width, 0.5),
-            "p = 1": fit_convergence(dx, width, 1.0)}
+    d, w = np.asarray(dx, float), np.asarray(width, float)
+    fits = {"p fitted": fit_convergence(d, w), "p = 1/2": fit_convergence(d, w, 0.5),
+            "p = 1": fit_convergence(d, w, 1.0)}
     free = fits["p fitted"]
     fixed = [fits["p = 1/2"], fits["p = 1"]]
     close = [f for f in fixed if f["rms"] <= 10.0 * free["rms"]] or [min(fixed, key=lambda f: f["rms"])]
     spread = max(abs(f["w0"] - free["w0"]) for f in close)
-    return free["w0"], float(np.hypot(free["w0_err"] or 0.0, spread)), fits
+    drop = 0.0
+    if d.size >= 4:
+        keep = d < np.max(d)
+        fits["p fitted, coarsest dropped"] = fit_convergence(d[keep], w[keep])
+        drop = abs(fits["p fitted, coarsest dropped"]["w0"] - free["w0"])
+    return free["w0"], float(np.sqrt((free["w0_err"] or 0.0) ** 2 + spread ** 2 + drop ** 2)), fits
 
 
 def old_shooting(Gamma, dx):
@@ -441,8 +456,10 @@ def main(argv=None):
                               ("p s.e.", e("p_err")), ("c", f5("c")), ("rms residual", e("rms")), ("dof", "dof")]),
         "",
         "Continuum width per Gamma (`continuum_fit`): w0 of the fitted-p fit; the error bar is the root sum of "
-        "squares of its standard error and the largest change of w0 to a fixed-p fit (p = 1/2 or 1) whose rms "
-        "residual is within 10 times the fitted-p one's (or the better fixed-p fit): the uncertainty of the law.",
+        "squares of (a) its standard error, (b) the largest change of w0 to a fixed-p fit (p = 1/2 or 1) whose "
+        "rms residual is within 10 times the fitted-p one's (or the better fixed-p fit): the uncertainty of "
+        "the law, and (c) with four spacings, the change of w0 when the coarsest is dropped: whether the "
+        "spacings are in the asymptotic range yet.",
         "",
         markdown_table(est, [("Gamma", "Gamma"), ("w0", f5("w0")), ("error", f5("error")),
                              ("finest dx", "finest"), ("W at finest dx", f5("w_finest"))]),
