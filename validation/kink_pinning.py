@@ -354,14 +354,15 @@ def load_or_run(Gamma, dx, centre, only_cached):
     return cached_kink(Gamma, dx, centre, need_profile=not only_cached)
 
 
-def convergence_rows(node_rows):
-    """Per spacing (coarse to fine) of one Gamma: the widths, the increment of W per halving and its ratio."""
+def convergence_rows(rows):
+    """Per spacing (coarse to fine) of one Gamma and centre: the widths, the increment of W per halving, its ratio."""
     out, prev, prev_inc = [], None, None
-    for r in sorted(node_rows, key=lambda r: -r["dx"]):
+    for r in sorted(rows, key=lambda r: -r["dx"]):
         w_int, w_spl = profile_widths(r)
         inc = None if (prev is None or w_int is None or prev["dx"] != 2 * r["dx"]) else w_int - prev["w_int"]
         ratio = None if (inc is None or prev_inc is None or prev_inc == 0) else inc / prev_inc
-        row = dict(Gamma=r["Gamma"], dx=r["dx"], n_nodes=r["n_nodes"], converged=r["converged"], mu1=r["mu1"],
+        row = dict(Gamma=r["Gamma"], dx=r["dx"], centre=r.get("centre", "node"), n_nodes=r["n_nodes"],
+                   converged=r["converged"], mu1=r["mu1"],
                    width=r["width"], w_int=w_int, w_spline=w_spl, increment=inc, ratio=ratio, seconds=r["seconds"])
         out.append(row)
         prev, prev_inc = (row if w_int is not None else None), inc
@@ -382,7 +383,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     rows, pairs, conv, fits, est, missing = [], [], [], [], [], []
     for G in args.gamma:
-        nodes = []
+        family = dict(node=[], bond=[])
         for dx in args.dx:
             node = load_or_run(G, dx, "node", args.only_cached)
             bond = load_or_run(G, dx, "bond", args.only_cached)
@@ -391,21 +392,21 @@ def main(argv=None):
                     missing.append(f"Gamma {G:g} dx {dx:g} {c}")
                 else:
                     rows.append(r)
-            if node is not None:
-                nodes.append(node)
+                    family[c].append(r)
             if node is not None and bond is not None:
                 pairs.append(both_pinned(node, bond))
-        cr = convergence_rows(nodes)
-        conv += cr
-        fine = [r for r in cr if r["dx"] <= args.fit_dx_max and r["w_int"] is not None]
-        if len(fine) >= 3:
-            w0, err, fs = continuum_fit([r["dx"] for r in fine], [r["w_int"] for r in fine])
-            for name, f in fs.items():
-                fits.append(dict(Gamma=G, law=name, dx=", ".join(f"{r['dx']:g}" for r in fine), **f))
-            est.append(dict(Gamma=G, w0=w0, error=err, finest=min(r["dx"] for r in fine),
-                            w_finest=fine[-1]["w_int"]))
-        else:
-            est.append(dict(Gamma=G, w0=None, error=None, finest=None, w_finest=None))
+        for c in ("node", "bond"):
+            cr = convergence_rows(family[c])
+            conv += [r for r in cr if r["w_int"] is not None]
+            fine = [r for r in cr if r["dx"] <= args.fit_dx_max and r["w_int"] is not None]
+            if len(fine) >= 3:
+                w0, err, fs = continuum_fit([r["dx"] for r in fine], [r["w_int"] for r in fine])
+                for name, f in fs.items():
+                    fits.append(dict(Gamma=G, centre=c, law=name, **f))
+                est.append(dict(Gamma=G, centre=c, w0=w0, error=err, finest=min(r["dx"] for r in fine),
+                                w_finest=fine[-1]["w_int"], spacings=", ".join(f"{r['dx']:g}" for r in fine)))
+            elif c == "node":
+                est.append(dict(Gamma=G, centre=c, w0=None, error=None, finest=None, w_finest=None, spacings=None))
 
     def mu(key):
         return lambda r: None if r.get(key) is None else f"{r[key]:.7f}"
@@ -426,6 +427,10 @@ def main(argv=None):
         "ran at once for dx <= 1).", "",
         markdown_table(rows, cols), "",
         "Not computed (absent from the cache): " + (", ".join(missing) if missing else "none") + ".", "",
+        f"Sum of the `seconds` above (the solves only; the measurements after each solve, symmetry centre and "
+        f"widths, add about 30 % at 1281 nodes): {sum(r['seconds'] for r in rows):.0f} s, of which the "
+        f"node-centred kinks at dx = 0.0625 and 0.03125: "
+        f"{sum(r['seconds'] for r in rows if r['centre'] == 'node' and r['dx'] < 0.1):.0f} s.", "",
         "The pair at each spacing where both were computed: which is stable, the pinning strength (the smaller "
         "|1 - |mu1|| of the two), the mean and the gap (node - bond) of the widths:", "",
         markdown_table(pairs, [(k, mu(k) if k.startswith("mu_") else k)
@@ -433,7 +438,8 @@ def main(argv=None):
                                          "width_bond", "mean", "gap", "seconds")]), "",
         "Below dx = 0.25 the pinning (|mu1| - 1 of a few 1e-6) is at the accuracy of the finite-difference "
         "multipliers, so 'neither' there means: not resolved, not a proof that both are unstable.", "",
-        "**The width under refinement (node-centred kink).** The width used for convergence is the integral "
+        "**The width under refinement** (both pinned kinks where their profile at the refined instant is "
+        "cached). The width used for convergence is the integral "
         "width W = 2 ln 9 * integral of theta (1 - theta) dx (`integral_width`; theta = (zeta - zeta_L) / "
         "(zeta_R - zeta_L) normalised by the end nodes, trapezoid rule over the nodes; the factor makes W the "
         "10-90 % width of a tanh front), of the height profile at the instant of `front_width(..., "
@@ -442,7 +448,8 @@ def main(argv=None):
         "width of a cubic-spline interpolant of the same profile (cross-check). `increment`: change of W from "
         "the next coarser spacing; `ratio`: increment over the one before (1/sqrt 2 = 0.707 for "
         "convergence like sqrt(dx), 0.5 like dx).", "",
-        markdown_table(conv, [("Gamma", "Gamma"), ("dx", "dx"), ("n_nodes", "n_nodes"), ("mu1", mu("mu1")),
+        markdown_table(conv, [("Gamma", "Gamma"), ("centre", "centre"), ("dx", "dx"), ("n_nodes", "n_nodes"),
+                              ("mu1", mu("mu1")),
                               ("width (linear)", f5("width")), ("W (integral)", f5("w_int")),
                               ("w_spline", f5("w_spline")), ("increment", f5("increment")),
                               ("ratio", lambda r: None if r["ratio"] is None else f"{r['ratio']:.3f}"),
@@ -451,7 +458,7 @@ def main(argv=None):
         "`fit_convergence`): p fitted, and p fixed at 1/2 (the heat-kernel correction sqrt(dx/s) along a "
         "landing front of tilt s) and at 1. Standard errors from the residuals (none where the fit has no "
         "degrees of freedom).", "",
-        markdown_table(fits, [("Gamma", "Gamma"), ("law", "law"), ("spacings", "dx"), ("w0", f5("w0")),
+        markdown_table(fits, [("Gamma", "Gamma"), ("centre", "centre"), ("law", "law"), ("w0", f5("w0")),
                               ("w0 s.e.", e("w0_err")), ("p", lambda r: f"{r['p']:.3f}"),
                               ("p s.e.", e("p_err")), ("c", f5("c")), ("rms residual", e("rms")), ("dof", "dof")]),
         "",
@@ -461,8 +468,8 @@ def main(argv=None):
         "the law, and (c) with four spacings, the change of w0 when the coarsest is dropped: whether the "
         "spacings are in the asymptotic range yet.",
         "",
-        markdown_table(est, [("Gamma", "Gamma"), ("w0", f5("w0")), ("error", f5("error")),
-                             ("finest dx", "finest"), ("W at finest dx", f5("w_finest"))]),
+        markdown_table(est, [("Gamma", "Gamma"), ("centre", "centre"), ("spacings fitted", "spacings"),
+                             ("w0", f5("w0")), ("error", f5("error")), ("W at finest dx", f5("w_finest"))]),
     ]
     publish("kink_pinning", "\n".join(text))
 
