@@ -384,7 +384,7 @@ def write2(rows, before=None):
              f"`validation/fault_battery.py` `battery2()`: {head}. Each case runs in its own process (4 GB "
              "address-space limit). Good: a `ValueError` naming the estimate or the parameter within 2 s of the "
              "call (refusals are decided from measured per-unit costs before any heavy work), or the honest "
-             "flag (status 2 or 5, `converged=False`).", "",
+             "flag (status 2, 5 or 9, `converged=False`).", "",
              "| case | before (af36af4) | after |", "|---|---|---|"]
     lines += [f"| {name} | {was.get(name, '-')}: {whats.get(name, '')} | {verdict}: {what} |"
               for name, verdict, what in rows]
