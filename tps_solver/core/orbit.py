@@ -31,7 +31,8 @@ code  meaning
       one period (choose another section)
 8     singular or non-finite Jacobian
 9     not the orbit asked for: the solve converged, but to the uniform flat layer
-      (no kink or oscillon is left on the lattice); the fields hold that orbit
+      (no kink or oscillon is left on the lattice) or to an orbit of a shorter
+      period repeated; the fields hold that orbit
 ====  ==========================================================================
 
 :func:`outcome` gives the ``converged``/``success`` pair of a code (computed once).
