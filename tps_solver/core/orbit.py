@@ -30,9 +30,9 @@ code  meaning
 7     periodic on the free nodes, but a node stuck at the section is free after
       one period (choose another section)
 8     singular or non-finite Jacobian
-9     not the orbit asked for: the solve converged, but to the uniform flat layer
-      (no kink or oscillon is left on the lattice) or to an orbit of a shorter
-      period repeated; the fields hold that orbit
+9     not the orbit asked for: the solve converged, but to the uniform flat
+      layer (no kink or oscillon is left on the lattice) or to an orbit of a
+      shorter period repeated; the fields hold that orbit
 ====  ==========================================================================
 
 :func:`outcome` gives the ``converged``/``success`` pair of a code (computed once).
