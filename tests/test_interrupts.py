@@ -16,6 +16,10 @@ import sys, json, os, signal, time
 import numpy as np
 import tps_solver as tps
 
+# a run started in the background without job control (nohup, `&` in a script) inherits SIGINT
+# ignored, and Python then installs no handler: restore what an interactive user has
+signal.signal(signal.SIGINT, signal.default_int_handler)
+
 
 def fire(k):
     """A callback that sends SIGINT to this process at its k-th call."""
